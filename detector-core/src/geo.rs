@@ -1,0 +1,140 @@
+//! Geodesy on a spherical Earth.
+//!
+//! Positions are `f64` degrees: at 10 Hz a car moves 1 to 3 m per epoch, and an `f32` longitude
+//! near 122 degrees resolves only about 0.85 m, which would swamp the location-shift check.
+//! Cortex-M4F has no double-precision FPU, so these run in soft float; it is a handful of calls
+//! per epoch.
+
+/// Mean Earth radius (IUGG), metres.
+pub const EARTH_RADIUS_MEAN_M: f64 = 6_371_008.8;
+/// The radius Dasgupta et al. use in their haversine (6378 km, the equatorial radius rounded).
+pub const EARTH_RADIUS_PAPER_M: f64 = 6_378_000.0;
+
+/// A WGS84 position in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct LatLon {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+}
+
+impl LatLon {
+    pub const fn new(lat_deg: f64, lon_deg: f64) -> Self {
+        Self { lat_deg, lon_deg }
+    }
+
+    /// Finite, latitude within [-90, 90] and longitude within [-180, 180].
+    pub fn is_valid(&self) -> bool {
+        self.lat_deg.is_finite()
+            && self.lon_deg.is_finite()
+            && (-90.0..=90.0).contains(&self.lat_deg)
+            && (-180.0..=180.0).contains(&self.lon_deg)
+    }
+}
+
+/// Great-circle distance in metres by the haversine formula on a sphere of `radius_m`.
+pub fn haversine_m(a: LatLon, b: LatLon, radius_m: f64) -> f64 {
+    let (p1, p2) = (a.lat_deg.to_radians(), b.lat_deg.to_radians());
+    let dp = p2 - p1;
+    let dl = (b.lon_deg - a.lon_deg).to_radians();
+    let s1 = libm::sin(dp * 0.5);
+    let s2 = libm::sin(dl * 0.5);
+    let h = s1 * s1 + libm::cos(p1) * libm::cos(p2) * s2 * s2;
+    // Rounding can push h a hair above 1 for antipodal points; asin would return NaN.
+    2.0 * radius_m * libm::asin(libm::sqrt(h.clamp(0.0, 1.0)))
+}
+
+/// Initial bearing (forward azimuth) from `a` to `b`, degrees in [0, 360), 0 = north, clockwise.
+pub fn initial_bearing_deg(a: LatLon, b: LatLon) -> f64 {
+    let (p1, p2) = (a.lat_deg.to_radians(), b.lat_deg.to_radians());
+    let dl = (b.lon_deg - a.lon_deg).to_radians();
+    let y = libm::sin(dl) * libm::cos(p2);
+    let x = libm::cos(p1) * libm::sin(p2) - libm::sin(p1) * libm::cos(p2) * libm::cos(dl);
+    wrap_360(libm::atan2(y, x).to_degrees())
+}
+
+/// Wraps an angle in degrees to [0, 360).
+pub fn wrap_360(deg: f64) -> f64 {
+    let r = deg - 360.0 * libm::floor(deg / 360.0);
+    if r >= 360.0 { 0.0 } else { r }
+}
+
+/// Signed smallest difference `to - from` in degrees, in (-180, 180]; + = clockwise (right turn).
+pub fn angle_diff_deg(from: f64, to: f64) -> f64 {
+    let d = wrap_360(to - from);
+    if d > 180.0 { d - 360.0 } else { d }
+}
+
+/// The point reached from `a` after `dist_m` along `bearing_deg` (spherical direct problem).
+pub fn destination(a: LatLon, bearing_deg: f64, dist_m: f64, radius_m: f64) -> LatLon {
+    let d = dist_m / radius_m;
+    let th = bearing_deg.to_radians();
+    let p1 = a.lat_deg.to_radians();
+    let l1 = a.lon_deg.to_radians();
+    let p2 = libm::asin(libm::sin(p1) * libm::cos(d) + libm::cos(p1) * libm::sin(d) * libm::cos(th));
+    let l2 = l1
+        + libm::atan2(
+            libm::sin(th) * libm::sin(d) * libm::cos(p1),
+            libm::cos(d) - libm::sin(p1) * libm::sin(p2),
+        );
+    LatLon::new(p2.to_degrees(), wrap_360(l2.to_degrees() + 180.0) - 180.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_degree_of_latitude() {
+        let d = haversine_m(LatLon::new(0.0, 0.0), LatLon::new(1.0, 0.0), EARTH_RADIUS_PAPER_M);
+        // 2*pi*R/360
+        assert!((d - 111_317.1).abs() < 0.5, "{d}");
+    }
+
+    #[test]
+    fn known_city_pair() {
+        // Paris (48.8566, 2.3522) to London (51.5074, -0.1278): 343.5 km on the mean sphere.
+        let d = haversine_m(
+            LatLon::new(48.8566, 2.3522),
+            LatLon::new(51.5074, -0.1278),
+            EARTH_RADIUS_MEAN_M,
+        );
+        assert!((d / 1000.0 - 343.5).abs() < 0.6, "{d}");
+    }
+
+    #[test]
+    fn bearings_of_the_cardinal_directions() {
+        let o = LatLon::new(10.0, 10.0);
+        assert!((initial_bearing_deg(o, LatLon::new(11.0, 10.0)) - 0.0).abs() < 1e-9);
+        assert!((initial_bearing_deg(o, LatLon::new(10.0, 11.0)) - 89.9).abs() < 0.2);
+        assert!((initial_bearing_deg(o, LatLon::new(9.0, 10.0)) - 180.0).abs() < 1e-9);
+        assert!((initial_bearing_deg(o, LatLon::new(10.0, 9.0)) - 270.1).abs() < 0.2);
+    }
+
+    #[test]
+    fn destination_round_trips_with_distance_and_bearing() {
+        let a = LatLon::new(37.72, -122.47);
+        for &brg in &[0.0, 45.0, 135.0, 270.0, 359.0] {
+            let b = destination(a, brg, 250.0, EARTH_RADIUS_PAPER_M);
+            assert!((haversine_m(a, b, EARTH_RADIUS_PAPER_M) - 250.0).abs() < 1e-6);
+            assert!(angle_diff_deg(brg, initial_bearing_deg(a, b)).abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn angle_helpers() {
+        assert_eq!(wrap_360(-10.0), 350.0);
+        assert_eq!(wrap_360(720.0), 0.0);
+        assert_eq!(angle_diff_deg(350.0, 10.0), 20.0);
+        assert_eq!(angle_diff_deg(10.0, 350.0), -20.0);
+    }
+
+    #[test]
+    fn degenerate_inputs_do_not_produce_nan() {
+        let a = LatLon::new(0.0, 0.0);
+        assert_eq!(haversine_m(a, a, EARTH_RADIUS_PAPER_M), 0.0);
+        let d = haversine_m(a, LatLon::new(0.0, 180.0), EARTH_RADIUS_PAPER_M);
+        assert!(d.is_finite());
+        assert!(!LatLon::new(f64::NAN, 0.0).is_valid());
+        assert!(!LatLon::new(91.0, 0.0).is_valid());
+    }
+}

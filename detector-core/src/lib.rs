@@ -1,0 +1,21 @@
+//! # detector-core
+//!
+//! The GNSS spoofing detector shared by the firmware and the host tools. `no_std`, no allocator:
+//! every buffer has a fixed capacity, and no input (NaN, garbage, time going backwards, a sensor
+//! going silent) makes it panic.
+//!
+//! The modules follow the data path:
+//!
+//! 1. [`geo`]: geodesy on WGS84 coordinates (haversine distance, initial bearing).
+//! 2. [`sample`]: the vocabulary: a [`sample::Fix`] from the receiver, a vehicle
+//!    [`sample::Signal`] observation, and the synchronised [`sample::Sample`] per GNSS epoch.
+//! 3. [`sync`]: synchronisation. GNSS epochs are the reference clock; each vehicle signal is
+//!    linearly interpolated to every epoch from its two nearest observations, or marked stale.
+//!
+//! Strategies, fusion and the verdict build on these.
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod geo;
+pub mod sample;
+pub mod sync;

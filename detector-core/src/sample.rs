@@ -1,0 +1,118 @@
+//! The shared vocabulary: what the receiver reports, what the vehicle reports, and the
+//! synchronised sample per GNSS epoch that every strategy consumes.
+
+use crate::geo::LatLon;
+
+/// The value of one signal at one epoch. Missing and stale are states, never NaN.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Reading {
+    /// Interpolated (or exactly observed) value, always finite.
+    Valid(f32),
+    /// The signal exists but had no observation within the configured gap of this epoch.
+    Stale,
+    /// The signal has never been observed (the source does not have it).
+    #[default]
+    Missing,
+}
+
+impl Reading {
+    /// A reading from an optional raw value: non-finite values become `Missing`.
+    pub fn from_opt(v: Option<f32>) -> Self {
+        match v {
+            Some(x) if x.is_finite() => Reading::Valid(x),
+            _ => Reading::Missing,
+        }
+    }
+    pub fn get(self) -> Option<f32> {
+        match self {
+            Reading::Valid(v) => Some(v),
+            _ => None,
+        }
+    }
+    pub fn is_valid(self) -> bool {
+        matches!(self, Reading::Valid(_))
+    }
+}
+
+/// The in-vehicle signals, with their units and sign conventions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Signal {
+    /// Wheel (vehicle) speed, m/s.
+    WheelSpeed = 0,
+    /// Steering wheel angle, degrees, + = left.
+    Steering = 1,
+    /// Accelerator pedal, percent 0..100.
+    Pedal = 2,
+    /// Yaw rate, deg/s, + = left (counter-clockwise seen from above).
+    YawRate = 3,
+    /// Longitudinal acceleration, m/s^2, + = forward.
+    LongAccel = 4,
+}
+
+impl Signal {
+    pub const COUNT: usize = 5;
+    pub const ALL: [Signal; Signal::COUNT] =
+        [Signal::WheelSpeed, Signal::Steering, Signal::Pedal, Signal::YawRate, Signal::LongAccel];
+
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+    pub const fn name(self) -> &'static str {
+        match self {
+            Signal::WheelSpeed => "wheel_speed",
+            Signal::Steering => "steering",
+            Signal::Pedal => "pedal",
+            Signal::YawRate => "yaw_rate",
+            Signal::LongAccel => "long_accel",
+        }
+    }
+}
+
+/// One GNSS fix as the receiver reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Fix {
+    /// Time of the fix, seconds, on the same clock as the vehicle observations.
+    pub t: f64,
+    pub pos: LatLon,
+    /// Speed over ground, m/s, when the receiver reports it.
+    pub speed_mps: Option<f32>,
+    /// Course over ground, degrees, 0 = north, clockwise, when the receiver reports it.
+    pub course_deg: Option<f32>,
+}
+
+/// Everything known at one GNSS epoch, synchronised.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Sample {
+    /// Epoch time, seconds.
+    pub t: f64,
+    /// Seconds since the previous epoch (0 for the first epoch after a start or reset).
+    pub dt_s: f32,
+    pub pos: LatLon,
+    /// Haversine distance from the previous fix, metres (`Missing` on the first epoch).
+    pub shift_m: Reading,
+    pub gnss_speed: Reading,
+    pub gnss_course: Reading,
+    /// Vehicle signals indexed by [`Signal::index`].
+    pub signals: [Reading; Signal::COUNT],
+}
+
+impl Sample {
+    pub fn signal(&self, s: Signal) -> Reading {
+        self.signals[s.index()]
+    }
+    pub fn wheel_speed(&self) -> Reading {
+        self.signal(Signal::WheelSpeed)
+    }
+    pub fn steering(&self) -> Reading {
+        self.signal(Signal::Steering)
+    }
+    pub fn pedal(&self) -> Reading {
+        self.signal(Signal::Pedal)
+    }
+    pub fn yaw_rate(&self) -> Reading {
+        self.signal(Signal::YawRate)
+    }
+    pub fn long_accel(&self) -> Reading {
+        self.signal(Signal::LongAccel)
+    }
+}

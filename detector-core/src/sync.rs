@@ -1,0 +1,428 @@
+//! Synchronisation: GNSS epochs are the reference clock.
+//!
+//! As in Dasgupta et al., each vehicle signal is linearly interpolated to every GNSS epoch from
+//! its two nearest observations (the last at or before the epoch and the first at or after it).
+//! Both must lie within [`SyncConfig::max_gap_s`] of the epoch, otherwise the signal is
+//! [`Reading::Stale`] at that epoch: nothing is ever extrapolated. A signal never observed since
+//! the start (or the last reset) is [`Reading::Missing`] and costs no waiting.
+//!
+//! This is a streaming component used unchanged by the firmware and by the host replays: feed
+//! fixes and observations in arrival order; a [`Sample`] is emitted once every signal of its
+//! epoch is resolved, that is, once an observation after the epoch has arrived or the clock
+//! (the latest accepted timestamp of any input) has passed the epoch by more than the gap.
+//! The latency of an epoch is therefore at most `max_gap_s`.
+//!
+//! Bad input never panics and never poisons the state: non-finite values and invalid positions
+//! are dropped and counted; an observation older than its signal's latest one, or a fix not
+//! newer than the latest fix, is dropped and counted, unless time jumped back by more than
+//! [`SyncConfig::reset_backjump_s`], which is taken as a clock reset and restarts
+//! synchronisation (pending epochs are emitted first, with unresolved signals stale).
+
+use crate::geo::{haversine_m, EARTH_RADIUS_PAPER_M};
+use crate::sample::{Fix, Reading, Sample, Signal};
+use heapless::Deque;
+
+/// Observations kept per signal. CAN signals arrive at up to ~100 Hz and a GNSS sentence can be
+/// late by a few hundred ms, so 32 covers the latest observation before a late epoch.
+pub const HISTORY: usize = 32;
+/// Epochs that may wait for their signals at once (10 Hz x 1 s gap needs 10; twice that spare).
+pub const PENDING: usize = 24;
+
+/// Tuning of the synchroniser.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SyncConfig {
+    /// Largest distance in time, seconds, between an epoch and each of the two observations it is
+    /// interpolated from. Default 1.0 s: OBD speed at 2 Hz and event-driven OpenXC signals at 3 Hz
+    /// are always bracketed; a signal silent for longer is stale.
+    pub max_gap_s: f64,
+    /// A jump back in time larger than this, seconds, is a clock reset. Default 5.0 s.
+    pub reset_backjump_s: f64,
+    /// Earth radius for the location shift, metres. Default: the paper's 6378 km.
+    pub earth_radius_m: f64,
+}
+
+impl Default for SyncConfig {
+    fn default() -> Self {
+        Self { max_gap_s: 1.0, reset_backjump_s: 5.0, earth_radius_m: EARTH_RADIUS_PAPER_M }
+    }
+}
+
+/// What the synchroniser dropped or repaired, for diagnostics.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SyncCounters {
+    pub fixes_invalid: u32,
+    pub fixes_out_of_order: u32,
+    pub obs_invalid: u32,
+    pub obs_out_of_order: u32,
+    pub resets: u32,
+    /// Epochs emitted early because the pending queue was full.
+    pub overflow_emits: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Obs {
+    t: f64,
+    v: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Slot {
+    Done(Reading),
+    Waiting,
+}
+
+struct Pending {
+    fix: Fix,
+    slots: [Slot; Signal::COUNT],
+}
+
+impl Pending {
+    fn ready(&self) -> bool {
+        self.slots.iter().all(|s| matches!(s, Slot::Done(_)))
+    }
+}
+
+/// The streaming synchroniser. See the module documentation.
+pub struct Synchronizer {
+    cfg: SyncConfig,
+    hist: [Deque<Obs, HISTORY>; Signal::COUNT],
+    pending: Deque<Pending, PENDING>,
+    clock: Option<f64>,
+    last_fix_t: Option<f64>,
+    prev_emitted: Option<Fix>,
+    counters: SyncCounters,
+}
+
+impl Synchronizer {
+    pub fn new(cfg: SyncConfig) -> Self {
+        Self {
+            cfg,
+            hist: core::array::from_fn(|_| Deque::new()),
+            pending: Deque::new(),
+            clock: None,
+            last_fix_t: None,
+            prev_emitted: None,
+            counters: SyncCounters::default(),
+        }
+    }
+
+    pub fn config(&self) -> &SyncConfig {
+        &self.cfg
+    }
+
+    pub fn counters(&self) -> SyncCounters {
+        self.counters
+    }
+
+    /// Epochs waiting for their signals.
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// Feeds one vehicle-signal observation.
+    pub fn push_obs(&mut self, sig: Signal, t: f64, v: f32, emit: &mut impl FnMut(&Sample)) {
+        if !t.is_finite() || !v.is_finite() {
+            self.counters.obs_invalid += 1;
+            return;
+        }
+        let hist = &mut self.hist[sig.index()];
+        if let Some(last) = hist.back_mut() {
+            if t < last.t - self.cfg.reset_backjump_s {
+                // This signal's clock restarted: its history is meaningless now.
+                hist.clear();
+                self.counters.resets += 1;
+            } else if t < last.t {
+                self.counters.obs_out_of_order += 1;
+                return;
+            } else if t == last.t {
+                last.v = v; // repeated timestamp: the newest value wins
+                self.resolve_waiting(sig);
+                self.tick(emit);
+                return;
+            }
+        }
+        if hist.is_full() {
+            hist.pop_front();
+        }
+        let _ = hist.push_back(Obs { t, v });
+        self.advance_clock(t);
+        self.resolve_waiting(sig);
+        self.tick(emit);
+    }
+
+    /// Feeds one GNSS fix: a new epoch.
+    pub fn push_fix(&mut self, fix: Fix, emit: &mut impl FnMut(&Sample)) {
+        if !fix.t.is_finite() || !fix.pos.is_valid() {
+            self.counters.fixes_invalid += 1;
+            return;
+        }
+        if let Some(last) = self.last_fix_t {
+            if fix.t < last - self.cfg.reset_backjump_s {
+                self.reset(emit);
+                self.counters.resets += 1;
+            } else if fix.t <= last {
+                self.counters.fixes_out_of_order += 1;
+                return;
+            }
+        }
+        let fix = Fix {
+            speed_mps: fix.speed_mps.filter(|v| v.is_finite()),
+            course_deg: fix.course_deg.filter(|v| v.is_finite()),
+            ..fix
+        };
+        self.last_fix_t = Some(fix.t);
+        self.advance_clock(fix.t);
+        let mut slots = [Slot::Waiting; Signal::COUNT];
+        for sig in Signal::ALL {
+            slots[sig.index()] = self.resolve(sig, fix.t);
+        }
+        if self.pending.is_full() {
+            self.force_front(emit);
+        }
+        let _ = self.pending.push_back(Pending { fix, slots });
+        self.tick(emit);
+    }
+
+    /// Emits every pending epoch now, with unresolved signals stale (end of a replay).
+    pub fn flush(&mut self, emit: &mut impl FnMut(&Sample)) {
+        while !self.pending.is_empty() {
+            self.force_front(emit);
+        }
+    }
+
+    /// Emits what is pending and forgets all history, as after a power-up.
+    pub fn reset(&mut self, emit: &mut impl FnMut(&Sample)) {
+        self.flush(emit);
+        for h in self.hist.iter_mut() {
+            h.clear();
+        }
+        self.clock = None;
+        self.last_fix_t = None;
+        self.prev_emitted = None;
+    }
+
+    fn advance_clock(&mut self, t: f64) {
+        self.clock = Some(match self.clock {
+            Some(c) if c >= t => c,
+            _ => t,
+        });
+    }
+
+    /// The reading of `sig` at epoch `te` if it can be decided now, else `Slot::Waiting`.
+    fn resolve(&self, sig: Signal, te: f64) -> Slot {
+        let hist = &self.hist[sig.index()];
+        if hist.is_empty() {
+            return Slot::Done(Reading::Missing);
+        }
+        let gap = self.cfg.max_gap_s;
+        // Last observation at or before the epoch, and the one after it.
+        let mut before: Option<Obs> = None;
+        let mut after: Option<Obs> = None;
+        for o in hist.iter().rev() {
+            if o.t <= te {
+                before = Some(*o);
+                break;
+            }
+            after = Some(*o);
+        }
+        match (before, after) {
+            (Some(b), _) if b.t == te => Slot::Done(Reading::Valid(b.v)),
+            (Some(b), _) if te - b.t > gap => Slot::Done(Reading::Stale),
+            (Some(b), Some(a)) => {
+                if a.t - te > gap {
+                    Slot::Done(Reading::Stale)
+                } else {
+                    let w = ((te - b.t) / (a.t - b.t)) as f32;
+                    Slot::Done(Reading::Valid(b.v + (a.v - b.v) * w))
+                }
+            }
+            (Some(_), None) => match self.clock {
+                Some(c) if c - te > gap => Slot::Done(Reading::Stale),
+                _ => Slot::Waiting,
+            },
+            // Every kept observation is after the epoch: its predecessor is gone or never was.
+            (None, _) => Slot::Done(Reading::Stale),
+        }
+    }
+
+    fn resolve_waiting(&mut self, sig: Signal) {
+        let i = sig.index();
+        for k in 0..self.pending.len() {
+            let (slot, te) = match self.pending.iter().nth(k) {
+                Some(p) => (p.slots[i], p.fix.t),
+                None => break,
+            };
+            if slot == Slot::Waiting {
+                let r = self.resolve(sig, te);
+                if let Some(p) = self.pending.iter_mut().nth(k) {
+                    p.slots[i] = r;
+                }
+            }
+        }
+    }
+
+    /// Times out waiting signals against the clock and emits every ready epoch in order.
+    fn tick(&mut self, emit: &mut impl FnMut(&Sample)) {
+        if let Some(c) = self.clock {
+            let gap = self.cfg.max_gap_s;
+            for p in self.pending.iter_mut() {
+                if c - p.fix.t > gap {
+                    for s in p.slots.iter_mut() {
+                        if *s == Slot::Waiting {
+                            *s = Slot::Done(Reading::Stale);
+                        }
+                    }
+                }
+            }
+        }
+        while self.pending.front().is_some_and(Pending::ready) {
+            self.force_front(emit);
+        }
+    }
+
+    fn force_front(&mut self, emit: &mut impl FnMut(&Sample)) {
+        let Some(p) = self.pending.pop_front() else { return };
+        if !p.ready() {
+            self.counters.overflow_emits += 1;
+        }
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        for (r, s) in signals.iter_mut().zip(p.slots.iter()) {
+            *r = match s {
+                Slot::Done(r) => *r,
+                Slot::Waiting => Reading::Stale,
+            };
+        }
+        let (dt_s, shift_m) = match self.prev_emitted {
+            Some(prev) if p.fix.t > prev.t => (
+                (p.fix.t - prev.t) as f32,
+                Reading::Valid(haversine_m(prev.pos, p.fix.pos, self.cfg.earth_radius_m) as f32),
+            ),
+            _ => (0.0, Reading::Missing),
+        };
+        let sample = Sample {
+            t: p.fix.t,
+            dt_s,
+            pos: p.fix.pos,
+            shift_m,
+            gnss_speed: Reading::from_opt(p.fix.speed_mps),
+            gnss_course: Reading::from_opt(p.fix.course_deg),
+            signals,
+        };
+        self.prev_emitted = Some(p.fix);
+        emit(&sample);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geo::LatLon;
+
+    fn fix(t: f64) -> Fix {
+        Fix { t, pos: LatLon::new(48.0, 11.0 + t * 1e-5), speed_mps: Some(1.0), course_deg: None }
+    }
+
+    fn collect(f: impl FnOnce(&mut Synchronizer, &mut dyn FnMut(&Sample))) -> heapless::Vec<Sample, 64> {
+        let mut s = Synchronizer::new(SyncConfig::default());
+        let mut out = heapless::Vec::new();
+        f(&mut s, &mut |x: &Sample| {
+            let _ = out.push(*x);
+        });
+        out
+    }
+
+    #[test]
+    fn interpolates_between_bracketing_observations() {
+        let out = collect(|s, e| {
+            let mut e = e;
+            s.push_obs(Signal::WheelSpeed, 0.0, 10.0, &mut e);
+            s.push_fix(fix(0.25), &mut e);
+            s.push_obs(Signal::WheelSpeed, 0.5, 20.0, &mut e);
+        });
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].wheel_speed(), Reading::Valid(15.0));
+        assert_eq!(out[0].steering(), Reading::Missing);
+        assert_eq!(out[0].shift_m, Reading::Missing);
+    }
+
+    #[test]
+    fn late_fix_uses_history() {
+        let out = collect(|s, e| {
+            let mut e = e;
+            for k in 0..10 {
+                s.push_obs(Signal::WheelSpeed, k as f64 * 0.1, k as f32, &mut e);
+            }
+            s.push_fix(fix(0.55), &mut e); // arrives after observations up to 0.9
+        });
+        assert_eq!(out.len(), 1);
+        match out[0].wheel_speed() {
+            Reading::Valid(v) => assert!((v - 5.5).abs() < 1e-4),
+            r => panic!("{r:?}"),
+        }
+    }
+
+    #[test]
+    fn gap_makes_stale_not_extrapolated() {
+        let out = collect(|s, e| {
+            let mut e = e;
+            s.push_obs(Signal::WheelSpeed, 0.0, 10.0, &mut e);
+            s.push_fix(fix(0.5), &mut e);
+            s.push_fix(fix(1.5), &mut e); // clock passes 0.5 + 1.0: epoch 0.5 times out
+            s.push_obs(Signal::WheelSpeed, 3.0, 10.0, &mut e); // too far after 1.5
+            s.flush(&mut e);
+        });
+        assert_eq!(out.len(), 2);
+        assert_eq!(out[0].wheel_speed(), Reading::Stale);
+        assert_eq!(out[1].wheel_speed(), Reading::Stale);
+        assert!((out[1].dt_s - 1.0).abs() < 1e-6);
+        assert!(out[1].shift_m.is_valid());
+    }
+
+    #[test]
+    fn bad_input_is_dropped_and_counted() {
+        let mut s = Synchronizer::new(SyncConfig::default());
+        let mut n = 0;
+        let mut e = |_: &Sample| n += 1;
+        s.push_obs(Signal::Steering, f64::NAN, 1.0, &mut e);
+        s.push_obs(Signal::Steering, 1.0, f32::INFINITY, &mut e);
+        s.push_obs(Signal::Steering, 2.0, 1.0, &mut e);
+        s.push_obs(Signal::Steering, 1.5, 1.0, &mut e);
+        s.push_fix(Fix { pos: LatLon::new(f64::NAN, 0.0), ..fix(2.0) }, &mut e);
+        s.push_fix(fix(2.0), &mut e);
+        s.push_fix(fix(2.0), &mut e);
+        let c = s.counters();
+        assert_eq!((c.obs_invalid, c.obs_out_of_order, c.fixes_invalid, c.fixes_out_of_order), (2, 1, 1, 1));
+        assert_eq!(n, 1);
+    }
+
+    #[test]
+    fn big_backjump_resets_and_recovers() {
+        let out = collect(|s, e| {
+            let mut e = e;
+            s.push_obs(Signal::WheelSpeed, 100.0, 1.0, &mut e);
+            s.push_fix(fix(100.0), &mut e);
+            s.push_obs(Signal::WheelSpeed, 0.9, 2.0, &mut e); // this signal's clock restarts
+            s.push_fix(fix(1.0), &mut e); // the receiver's too: a full reset
+            s.push_obs(Signal::WheelSpeed, 1.0, 2.0, &mut e);
+            s.push_fix(fix(1.1), &mut e);
+            s.push_obs(Signal::WheelSpeed, 1.2, 2.0, &mut e);
+        });
+        assert_eq!(out.len(), 3);
+        assert_eq!(out[2].wheel_speed(), Reading::Valid(2.0));
+        assert_eq!(out[1].wheel_speed(), Reading::Missing, "history is forgotten at a reset");
+        assert_eq!(out[1].shift_m, Reading::Missing, "no shift across a reset");
+    }
+
+    #[test]
+    fn overflow_emits_oldest() {
+        let mut s = Synchronizer::new(SyncConfig { max_gap_s: 1e9, ..SyncConfig::default() });
+        let mut n = 0;
+        let mut e = |_: &Sample| n += 1;
+        s.push_obs(Signal::Pedal, 0.0, 1.0, &mut e);
+        for k in 1..=(PENDING as u32 + 3) {
+            s.push_fix(fix(k as f64), &mut e);
+        }
+        assert_eq!(n, 3);
+        assert_eq!(s.counters().overflow_emits, 3);
+    }
+}

@@ -1,0 +1,44 @@
+//! Helpers for the end-to-end system tests in `tests/tests/`: they run the real `host-sim`
+//! binary, as a user would.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+/// Path of the `host-sim` binary, built once per test run (dev profile).
+pub fn host_sim_bin() -> &'static PathBuf {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let st = Command::new(cargo)
+            .args(["build", "-q", "-p", "host-sim", "--bin", "host-sim"])
+            .current_dir(&root)
+            .status()
+            .expect("run cargo build");
+        assert!(st.success(), "building host-sim failed");
+        let target = std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or(root.join("target"));
+        target.join("debug").join("host-sim")
+    })
+}
+
+/// Runs `host-sim` with `args`.
+pub fn host_sim(args: &[&str]) -> Output {
+    Command::new(host_sim_bin()).args(args).output().expect("run host-sim")
+}
+
+/// The real-data folder, or `None` after printing why the test is skipped (a failure in CI).
+pub fn data_dir(test: &str) -> Option<PathBuf> {
+    let d = std::env::var_os("GNSS_DATA_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    if d.join("drives").is_dir() {
+        return Some(d);
+    }
+    let msg = format!("{test}: real data not found at {} (set GNSS_DATA_DIR)", d.display());
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        panic!("{msg}; CI must run with ../shared/data");
+    }
+    eprintln!("SKIPPED {msg}");
+    None
+}
