@@ -13,6 +13,9 @@ cargo clippy --workspace --all-targets -q -- -D warnings
 echo "== host tests"
 cargo test --workspace
 echo "== detector-core for Cortex-M4F (no_std, no alloc)"
+if grep -rnE 'extern crate (alloc|std)|alloc::' detector-core/src; then
+  echo "detector-core must not use alloc or std" >&2; exit 1
+fi
 cargo build -q -p detector-core --target thumbv7em-none-eabihf --release
 echo "== firmware image (embassy, STM32F405RG)"
 (cd firmware && cargo clippy -q --release -- -D warnings && cargo build -q --release)

@@ -12,10 +12,15 @@
 //! 3. [`sync`]: synchronisation. GNSS epochs are the reference clock; each vehicle signal is
 //!    linearly interpolated to every epoch from its two nearest observations, or marked stale.
 //!
-//! Strategies, fusion and the verdict build on these.
+//! 4. [`strategy`]: the detection strategies (location shift, motion state; turns plug in).
+//! 5. [`fusion`]: one [`fusion::Verdict`] per epoch from all strategies, degraded mode, and the
+//!    latched alarm; [`fusion::Config`] holds all tuning, from a [`profile::ReceiverProfile`].
 #![no_std]
 #![forbid(unsafe_code)]
 
 pub mod geo;
 pub mod sample;
 pub mod sync;
+pub mod strategy;
+pub mod fusion;
+pub mod profile;

@@ -15,8 +15,9 @@
 //! Bad input never panics and never poisons the state: non-finite values and invalid positions
 //! are dropped and counted; an observation older than its signal's latest one, or a fix not
 //! newer than the latest fix, is dropped and counted, unless time jumped back by more than
-//! [`SyncConfig::reset_backjump_s`], which is taken as a clock reset and restarts
-//! synchronisation (pending epochs are emitted first, with unresolved signals stale).
+//! [`SyncConfig::reset_backjump_s`]. All inputs share one clock, so that is taken as a clock
+//! reset and restarts synchronisation (pending epochs are emitted first, with unresolved
+//! signals stale).
 
 use crate::geo::{haversine_m, EARTH_RADIUS_PAPER_M};
 use crate::sample::{Fix, Reading, Sample, Signal};
@@ -125,13 +126,10 @@ impl Synchronizer {
             self.counters.obs_invalid += 1;
             return;
         }
+        self.check_clock_reset(t, emit);
         let hist = &mut self.hist[sig.index()];
         if let Some(last) = hist.back_mut() {
-            if t < last.t - self.cfg.reset_backjump_s {
-                // This signal's clock restarted: its history is meaningless now.
-                hist.clear();
-                self.counters.resets += 1;
-            } else if t < last.t {
+            if t < last.t {
                 self.counters.obs_out_of_order += 1;
                 return;
             } else if t == last.t {
@@ -156,11 +154,9 @@ impl Synchronizer {
             self.counters.fixes_invalid += 1;
             return;
         }
+        self.check_clock_reset(fix.t, emit);
         if let Some(last) = self.last_fix_t {
-            if fix.t < last - self.cfg.reset_backjump_s {
-                self.reset(emit);
-                self.counters.resets += 1;
-            } else if fix.t <= last {
+            if fix.t <= last {
                 self.counters.fixes_out_of_order += 1;
                 return;
             }
@@ -199,6 +195,14 @@ impl Synchronizer {
         self.clock = None;
         self.last_fix_t = None;
         self.prev_emitted = None;
+    }
+
+    /// All inputs share one clock: an input far behind the latest time is a clock reset.
+    fn check_clock_reset(&mut self, t: f64, emit: &mut impl FnMut(&Sample)) {
+        if self.clock.is_some_and(|c| t < c - self.cfg.reset_backjump_s) {
+            self.reset(emit);
+            self.counters.resets += 1;
+        }
     }
 
     fn advance_clock(&mut self, t: f64) {
@@ -409,7 +413,7 @@ mod tests {
         });
         assert_eq!(out.len(), 3);
         assert_eq!(out[2].wheel_speed(), Reading::Valid(2.0));
-        assert_eq!(out[1].wheel_speed(), Reading::Missing, "history is forgotten at a reset");
+        assert_eq!(out[1].wheel_speed(), Reading::Valid(2.0), "observations after the reset are used");
         assert_eq!(out[1].shift_m, Reading::Missing, "no shift across a reset");
     }
 

@@ -4,6 +4,8 @@
 //! through the core's synchroniser (the same code the firmware runs) into per-epoch samples,
 //! and [`inspect`] summarises a drive.
 
+pub mod calibrate;
+pub mod detect;
 pub mod input;
 pub mod inspect;
 pub mod replay;

@@ -1,7 +1,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use detector_core::sync::SyncConfig;
 use host_sim::input::{self, hdd::HddUnits, InputError, LoadOptions};
-use host_sim::{inspect, replay};
+use host_sim::{detect, inspect, replay};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -69,6 +69,36 @@ enum Cmd {
         #[command(flatten)]
         load: LoadArgs,
     },
+    /// Run the detector over one drive: per-epoch verdicts, then a summary.
+    Detect {
+        path: PathBuf,
+        /// JSON lines: one per epoch, then {"summary": ...}.
+        #[arg(long)]
+        json: bool,
+        /// Receiver profile (default: from the drive's fix rate).
+        #[arg(long, value_parser = ["ublox-10hz", "logger-1hz"])]
+        profile: Option<String>,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+    /// Measure the kinematic predictor's error and GNSS speeds at standstill on clean drives.
+    Calibrate {
+        #[arg(required = true)]
+        paths: Vec<PathBuf>,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+}
+
+fn expand(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for p in paths {
+        files.extend(input::discover(p)?);
+    }
+    if files.is_empty() {
+        anyhow::bail!(InputError::file(&paths[0], "no drive found: expected .csv, .jsonl, a comma2k19 segment or an HDD session"));
+    }
+    Ok(files)
 }
 
 fn main() -> ExitCode {
@@ -89,13 +119,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.cmd {
         Cmd::Inspect { paths, json, load } => {
             let opts = load.options();
-            let mut files = Vec::new();
-            for p in &paths {
-                files.extend(input::discover(p)?);
-            }
-            if files.is_empty() {
-                anyhow::bail!(InputError::file(&paths[0], "no drive found: expected .csv, .jsonl, a comma2k19 segment or an HDD session"));
-            }
+            let files = expand(&paths)?;
             // Load everything first: a bad file fails the run before anything is printed.
             let mut all = Vec::new();
             for f in &files {
@@ -110,6 +134,42 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     print_stats(s);
                 }
             }
+            Ok(())
+        }
+        Cmd::Detect { path, json, profile, load } => {
+            let files = expand(std::slice::from_ref(&path))?;
+            if files.len() != 1 {
+                anyhow::bail!(InputError::file(&path, format!("expected one drive, found {} inside", files.len())));
+            }
+            let r = input::load(&files[0], &load.options())?;
+            let (samples, _) = replay::synchronize(&r, load.sync());
+            let p = match profile.as_deref() {
+                Some("ublox-10hz") => &detector_core::profile::UBLOX_10HZ,
+                Some(_) => &detector_core::profile::LOGGER_1HZ,
+                None => detect::profile_of(&samples),
+            };
+            let verdicts = detect::run(&samples, detector_core::fusion::Config::for_profile(p));
+            let summary = detect::summarize(&verdicts, p);
+            let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+            use std::io::Write;
+            for v in &verdicts {
+                if json {
+                    writeln!(out, "{}", detect::verdict_json(v))?;
+                } else {
+                    writeln!(out, "{}", detect::verdict_line(v))?;
+                }
+            }
+            if json {
+                writeln!(out, "{}", serde_json::json!({ "summary": summary }))?;
+            } else {
+                writeln!(out, "summary: {}", serde_json::to_string_pretty(&summary)?)?;
+            }
+            Ok(())
+        }
+        Cmd::Calibrate { paths, load } => {
+            let files = expand(&paths)?;
+            let st = host_sim::calibrate::run(&files, &load.options(), load.sync())?;
+            println!("{}", serde_json::to_string_pretty(&st)?);
             Ok(())
         }
     }

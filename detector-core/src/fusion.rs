@@ -1,0 +1,270 @@
+//! Fusion: one [`Verdict`] per epoch from all strategies, and the latched alarm.
+//!
+//! A strategy whose inputs are stale or missing is *degraded* at that epoch: it does not run,
+//! the verdict says so with a reason code, and it can never raise an alarm. A time discontinuity
+//! (time not increasing, or an epoch longer than [`ShiftConfig::max_dt_s`]) or an invalid sample
+//! resets every strategy's memory, so old state is never compared with new data.
+//!
+//! The alarm latches: once any strategy fires, `alarm` stays true, with the first alarm's epoch,
+//! until [`Detector::clear_alarm`]. Per-epoch `fired` sets are kept separately, so which
+//! strategies detected which attack (the paper's Table 3) is derived from verdicts directly.
+
+use crate::profile::ReceiverProfile;
+use crate::sample::Sample;
+use crate::strategy::location_shift::{ShiftConfig, ShiftOutcome, ShiftPredictor};
+use crate::strategy::motion::{Disagreement, Motion, MotionConfig, MotionOutcome};
+use crate::strategy::{StrategyId, StrategySet};
+
+/// All tuning of the detector, with documented defaults ([`Config::for_profile`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Config {
+    pub shift: ShiftConfig,
+    pub motion: MotionConfig,
+}
+
+impl Config {
+    /// The configuration for a receiver profile: its GNSS error term and the kinematic
+    /// predictor's measured maximum error at its rate; motion thresholds are common.
+    pub fn for_profile(p: &ReceiverProfile) -> Self {
+        Config {
+            shift: ShiftConfig {
+                predictor_error_m: p.kinematic_max_error_m,
+                gnss_error_m: p.gnss_error_m,
+                nominal_dt_s: p.nominal_dt_s,
+                max_dt_s: 3.0,
+            },
+            motion: MotionConfig {
+                wheel_stop_mps: 0.3,
+                wheel_move_mps: 1.0,
+                gnss_stop_mps: p.gnss_speed_stop_mps,
+                gnss_move_mps: p.gnss_speed_move_mps,
+                pos_stop_mps: p.pos_speed_stop_mps,
+                pos_move_mps: p.pos_speed_move_mps,
+                persist_s: 3.0,
+            },
+        }
+    }
+}
+
+/// Why a verdict looks the way it does. A bit set; see [`Reasons`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reason {
+    /// S1: GNSS moved further than the car could have.
+    ShiftExceedsPrediction = 0,
+    /// S1: GNSS moved less than the car did.
+    ShiftBelowPrediction = 1,
+    /// S3: GNSS moving while the wheels stand.
+    GnssMovingWheelsStanding = 2,
+    /// S3: GNSS standing while the wheels turn.
+    GnssStandingWheelsMoving = 3,
+    /// S2: steering and GNSS disagree about a turn.
+    TurnMismatch = 4,
+    /// Degraded: the predictor lacks its inputs (e.g. wheel speed stale or missing).
+    NoPrediction = 8,
+    /// Degraded: no location shift (first epoch, or after a reset).
+    NoGnssShift = 9,
+    /// Degraded: S3 lacks wheel speed or any GNSS speed.
+    NoMotionInputs = 10,
+    /// Time did not increase, or the epoch was too long: all strategies restarted.
+    TimeDiscontinuity = 11,
+    /// The sample had an invalid time or position: all strategies restarted.
+    InvalidSample = 12,
+    /// Degraded: S2 lacks steering or a GNSS course.
+    NoTurnInputs = 13,
+}
+
+impl Reason {
+    pub const ALL: [Reason; 11] = [
+        Reason::ShiftExceedsPrediction,
+        Reason::ShiftBelowPrediction,
+        Reason::GnssMovingWheelsStanding,
+        Reason::GnssStandingWheelsMoving,
+        Reason::TurnMismatch,
+        Reason::NoPrediction,
+        Reason::NoGnssShift,
+        Reason::NoMotionInputs,
+        Reason::TimeDiscontinuity,
+        Reason::InvalidSample,
+        Reason::NoTurnInputs,
+    ];
+    pub const fn name(self) -> &'static str {
+        match self {
+            Reason::ShiftExceedsPrediction => "shift_exceeds_prediction",
+            Reason::ShiftBelowPrediction => "shift_below_prediction",
+            Reason::GnssMovingWheelsStanding => "gnss_moving_wheels_standing",
+            Reason::GnssStandingWheelsMoving => "gnss_standing_wheels_moving",
+            Reason::TurnMismatch => "turn_mismatch",
+            Reason::NoPrediction => "no_prediction",
+            Reason::NoGnssShift => "no_gnss_shift",
+            Reason::NoMotionInputs => "no_motion_inputs",
+            Reason::TimeDiscontinuity => "time_discontinuity",
+            Reason::InvalidSample => "invalid_sample",
+            Reason::NoTurnInputs => "no_turn_inputs",
+        }
+    }
+}
+
+/// A set of [`Reason`]s.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Reasons(pub u16);
+
+impl Reasons {
+    pub fn insert(&mut self, r: Reason) {
+        self.0 |= 1 << r as u16;
+    }
+    pub fn contains(self, r: Reason) -> bool {
+        self.0 & (1 << r as u16) != 0
+    }
+    pub fn iter(self) -> impl Iterator<Item = Reason> {
+        Reason::ALL.into_iter().filter(move |r| self.contains(*r))
+    }
+}
+
+/// The first alarm since start or the last [`Detector::clear_alarm`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstAlarm {
+    pub epoch: u32,
+    pub t: f64,
+}
+
+/// The detector's output for one epoch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Verdict {
+    /// Epoch counter since start (every call to [`Detector::step`] is one epoch).
+    pub epoch: u32,
+    pub t: f64,
+    /// Strategies that ran at this epoch.
+    pub ran: StrategySet,
+    /// Strategies that fired at this epoch.
+    pub fired: StrategySet,
+    /// Strategies that could not run for lack of valid inputs.
+    pub degraded: StrategySet,
+    pub reasons: Reasons,
+    /// Strategy 1's numbers, when it ran.
+    pub shift: Option<ShiftOutcome>,
+    /// Strategy 3's numbers, when it ran.
+    pub motion: Option<MotionOutcome>,
+    /// Latched alarm.
+    pub alarm: bool,
+    pub first_alarm: Option<FirstAlarm>,
+}
+
+/// The streaming detector: one [`Sample`] in per epoch, one [`Verdict`] out. No allocation,
+/// no panic on any input.
+#[derive(Clone, Debug)]
+pub struct Detector<P: ShiftPredictor> {
+    cfg: Config,
+    predictor: P,
+    motion: Motion,
+    prev_t: Option<f64>,
+    epoch: u32,
+    first_alarm: Option<FirstAlarm>,
+}
+
+impl<P: ShiftPredictor> Detector<P> {
+    pub fn new(cfg: Config, predictor: P) -> Self {
+        Self { cfg, predictor, motion: Motion::new(cfg.motion), prev_t: None, epoch: 0, first_alarm: None }
+    }
+
+    pub fn config(&self) -> &Config {
+        &self.cfg
+    }
+
+    pub fn clear_alarm(&mut self) {
+        self.first_alarm = None;
+    }
+
+    fn restart(&mut self) {
+        self.predictor.reset();
+        self.motion.reset();
+    }
+
+    pub fn step(&mut self, s: &Sample) -> Verdict {
+        let epoch = self.epoch;
+        self.epoch = self.epoch.wrapping_add(1);
+        let mut v = Verdict {
+            epoch,
+            t: s.t,
+            ran: StrategySet::EMPTY,
+            fired: StrategySet::EMPTY,
+            degraded: StrategySet::EMPTY,
+            reasons: Reasons::default(),
+            shift: None,
+            motion: None,
+            alarm: false,
+            first_alarm: self.first_alarm,
+        };
+        let all_degraded = |v: &mut Verdict| {
+            v.degraded.insert(StrategyId::LocationShift);
+            v.degraded.insert(StrategyId::Motion);
+        };
+        if !s.t.is_finite() || !s.pos.is_valid() {
+            self.restart();
+            self.prev_t = None;
+            v.reasons.insert(Reason::InvalidSample);
+            all_degraded(&mut v);
+            v.alarm = self.first_alarm.is_some();
+            return v;
+        }
+        let max_dt = self.cfg.shift.max_dt_s;
+        let continuous = match self.prev_t {
+            Some(p) => s.t > p && s.t - p <= max_dt as f64,
+            None => true,
+        };
+        if !continuous {
+            self.restart();
+            v.reasons.insert(Reason::TimeDiscontinuity);
+        }
+        self.prev_t = Some(s.t);
+
+        // Strategy 1. The predictor sees every sample so its state stays current.
+        let predicted = self.predictor.predict(s);
+        let dt_ok = continuous && s.dt_s.is_finite() && s.dt_s > 0.0 && s.dt_s <= max_dt;
+        match (s.shift_m.get().filter(|d| d.is_finite() && *d >= 0.0), predicted.filter(|p| p.is_finite())) {
+            (Some(shift), Some(pred)) if dt_ok => {
+                let o = self.cfg.shift.judge(shift, pred, s.dt_s);
+                v.ran.insert(StrategyId::LocationShift);
+                if o.fired {
+                    v.fired.insert(StrategyId::LocationShift);
+                    v.reasons.insert(if o.residual_m > 0.0 { Reason::ShiftExceedsPrediction } else { Reason::ShiftBelowPrediction });
+                }
+                v.shift = Some(o);
+            }
+            (shift, pred) => {
+                v.degraded.insert(StrategyId::LocationShift);
+                if pred.is_none() {
+                    v.reasons.insert(Reason::NoPrediction);
+                }
+                if shift.is_none() || !dt_ok {
+                    v.reasons.insert(Reason::NoGnssShift);
+                }
+            }
+        }
+
+        // Strategy 3.
+        match self.motion.step(s) {
+            Some(o) => {
+                v.ran.insert(StrategyId::Motion);
+                if o.fired {
+                    v.fired.insert(StrategyId::Motion);
+                    v.reasons.insert(match o.disagreement {
+                        Some(Disagreement::GnssMovingWheelsStanding) => Reason::GnssMovingWheelsStanding,
+                        _ => Reason::GnssStandingWheelsMoving,
+                    });
+                }
+                v.motion = Some(o);
+            }
+            None => {
+                v.degraded.insert(StrategyId::Motion);
+                v.reasons.insert(Reason::NoMotionInputs);
+            }
+        }
+
+        if !v.fired.is_empty() && self.first_alarm.is_none() {
+            self.first_alarm = Some(FirstAlarm { epoch, t: s.t });
+        }
+        v.first_alarm = self.first_alarm;
+        v.alarm = self.first_alarm.is_some();
+        v
+    }
+}

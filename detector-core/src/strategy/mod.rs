@@ -1,0 +1,54 @@
+//! The detection strategies. Each consumes synchronised [`Sample`](crate::sample::Sample)s,
+//! one per GNSS epoch, and reports whether it ran, whether it fired, and why.
+//!
+//! - [`location_shift`]: strategy 1, GNSS location shift vs a predicted shift.
+//! - [`motion`]: strategy 3, standstill vs motion from the wheels and from GNSS.
+//!
+//! Strategy 2 (turns by DTW k-NN on steering) plugs in beside them with its own
+//! [`StrategyId::Turn`].
+
+pub mod location_shift;
+pub mod motion;
+
+/// Identifies a strategy in verdicts and reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum StrategyId {
+    LocationShift = 0,
+    Turn = 1,
+    Motion = 2,
+}
+
+impl StrategyId {
+    pub const ALL: [StrategyId; 3] = [StrategyId::LocationShift, StrategyId::Turn, StrategyId::Motion];
+    /// The name used on the command line, in JSON and in reports.
+    pub const fn name(self) -> &'static str {
+        match self {
+            StrategyId::LocationShift => "location_shift",
+            StrategyId::Turn => "turn",
+            StrategyId::Motion => "motion",
+        }
+    }
+}
+
+/// A small set of strategies (a bit mask).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct StrategySet(pub u8);
+
+impl StrategySet {
+    pub const EMPTY: StrategySet = StrategySet(0);
+    pub fn insert(&mut self, s: StrategyId) {
+        self.0 |= 1 << s as u8;
+    }
+    pub fn contains(self, s: StrategyId) -> bool {
+        self.0 & (1 << s as u8) != 0
+    }
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+    pub fn union(self, o: StrategySet) -> StrategySet {
+        StrategySet(self.0 | o.0)
+    }
+    pub fn iter(self) -> impl Iterator<Item = StrategyId> {
+        StrategyId::ALL.into_iter().filter(move |s| self.contains(*s))
+    }
+}

@@ -1,0 +1,111 @@
+//! Runs `detector_core`'s detector over synchronised samples and turns verdicts into JSON.
+
+use detector_core::fusion::{Config, Detector, Verdict};
+use detector_core::profile::{self, ReceiverProfile};
+use detector_core::sample::Sample;
+use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::StrategyId;
+use serde::Serialize;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+
+/// The receiver profile of a drive, from its median epoch duration.
+pub fn profile_of(samples: &[Sample]) -> &'static ReceiverProfile {
+    let mut dts: Vec<f32> = samples.iter().map(|s| s.dt_s).filter(|d| *d > 0.0).collect();
+    if dts.is_empty() {
+        return &profile::LOGGER_1HZ;
+    }
+    dts.sort_by(f32::total_cmp);
+    profile::for_rate(1.0 / dts[dts.len() / 2] as f64)
+}
+
+/// Verdicts of the kinematic-predictor detector, one per sample.
+pub fn run(samples: &[Sample], cfg: Config) -> Vec<Verdict> {
+    let mut d = Detector::new(cfg, KinematicPredictor::default());
+    samples.iter().map(|s| d.step(s)).collect()
+}
+
+fn names(set: detector_core::strategy::StrategySet) -> Vec<&'static str> {
+    set.iter().map(StrategyId::name).collect()
+}
+
+/// One JSON line per epoch.
+pub fn verdict_json(v: &Verdict) -> Value {
+    let mut o = json!({
+        "epoch": v.epoch,
+        "t": v.t,
+        "alarm": v.alarm,
+        "fired": names(v.fired),
+        "ran": names(v.ran),
+        "degraded": names(v.degraded),
+        "reasons": v.reasons.iter().map(|r| r.name()).collect::<Vec<_>>(),
+    });
+    if let Some(s) = v.shift {
+        o["shift"] = json!({"gnss_m": s.gnss_shift_m, "predicted_m": s.predicted_m, "residual_m": s.residual_m, "threshold_m": s.threshold_m});
+    }
+    if let Some(m) = v.motion {
+        o["motion"] = json!({"wheel": format!("{:?}", m.wheel).to_lowercase(), "gnss": format!("{:?}", m.gnss).to_lowercase(), "disagree_s": m.disagree_s});
+    }
+    if let Some(f) = v.first_alarm {
+        o["first_alarm"] = json!({"epoch": f.epoch, "t": f.t});
+    }
+    o
+}
+
+/// One human-readable line per epoch.
+pub fn verdict_line(v: &Verdict) -> String {
+    let mut l = format!("{:>6} t={:>9.2} alarm={}", v.epoch, v.t, if v.alarm { "YES" } else { "no " });
+    if let Some(s) = v.shift {
+        l += &format!(" shift {:6.2} m pred {:6.2} m |res| {:6.2} / thr {:5.2}", s.gnss_shift_m, s.predicted_m, s.residual_m.abs(), s.threshold_m);
+    }
+    if !v.fired.is_empty() {
+        l += &format!(" FIRED {:?}", names(v.fired));
+    }
+    if !v.degraded.is_empty() {
+        l += &format!(" degraded {:?}", names(v.degraded));
+    }
+    let r: Vec<_> = v.reasons.iter().map(|r| r.name()).collect();
+    if !r.is_empty() {
+        l += &format!(" [{}]", r.join(","));
+    }
+    l
+}
+
+/// Per-drive summary of a detection run.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Summary {
+    pub epochs: usize,
+    pub profile: &'static str,
+    /// Epochs at which each strategy fired.
+    pub fired: BTreeMap<&'static str, usize>,
+    /// Epochs at which each strategy ran.
+    pub ran: BTreeMap<&'static str, usize>,
+    /// Epochs at which each strategy was degraded.
+    pub degraded: BTreeMap<&'static str, usize>,
+    pub alarm: bool,
+    pub first_alarm_t: Option<f64>,
+    pub first_alarm_epoch: Option<u32>,
+}
+
+pub fn summarize(verdicts: &[Verdict], profile: &ReceiverProfile) -> Summary {
+    let mut fired = BTreeMap::new();
+    let mut ran = BTreeMap::new();
+    let mut degraded = BTreeMap::new();
+    for s in StrategyId::ALL {
+        let count = |f: &dyn Fn(&Verdict) -> bool| verdicts.iter().filter(|v| f(v)).count();
+        fired.insert(s.name(), count(&|v| v.fired.contains(s)));
+        ran.insert(s.name(), count(&|v| v.ran.contains(s)));
+        degraded.insert(s.name(), count(&|v| v.degraded.contains(s)));
+    }
+    let first = verdicts.iter().rev().find_map(|v| v.first_alarm);
+    Summary {
+        epochs: verdicts.len(),
+        profile: profile.name,
+        fired,
+        ran,
+        degraded,
+        alarm: first.is_some(),
+        first_alarm_t: first.map(|f| f.t),
+        first_alarm_epoch: first.map(|f| f.epoch),
+    }
+}
