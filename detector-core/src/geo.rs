@@ -79,6 +79,21 @@ pub fn destination(a: LatLon, bearing_deg: f64, dist_m: f64, radius_m: f64) -> L
     LatLon::new(p2.to_degrees(), wrap_360(l2.to_degrees() + 180.0) - 180.0)
 }
 
+/// East/north metres of `p` from `origin` (equirectangular; good to ~0.1 % within 10 km).
+pub fn to_local(origin: LatLon, p: LatLon, radius_m: f64) -> (f64, f64) {
+    let k = radius_m * core::f64::consts::PI / 180.0;
+    let e = (p.lon_deg - origin.lon_deg) * k * libm::cos(origin.lat_deg.to_radians());
+    let n = (p.lat_deg - origin.lat_deg) * k;
+    (e, n)
+}
+
+/// Inverse of [`to_local`].
+pub fn from_local(origin: LatLon, east_m: f64, north_m: f64, radius_m: f64) -> LatLon {
+    let k = radius_m * core::f64::consts::PI / 180.0;
+    let c = libm::cos(origin.lat_deg.to_radians()).max(1e-9);
+    LatLon::new(origin.lat_deg + north_m / k, origin.lon_deg + east_m / (k * c))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,6 +133,15 @@ mod tests {
             assert!((haversine_m(a, b, EARTH_RADIUS_PAPER_M) - 250.0).abs() < 1e-6);
             assert!(angle_diff_deg(brg, initial_bearing_deg(a, b)).abs() < 1e-3);
         }
+    }
+
+    #[test]
+    fn local_round_trip() {
+        let o = LatLon::new(56.1, 10.2);
+        let p = from_local(o, 120.0, -80.0, EARTH_RADIUS_PAPER_M);
+        let (e, n) = to_local(o, p, EARTH_RADIUS_PAPER_M);
+        assert!((e - 120.0).abs() < 1e-6 && (n + 80.0).abs() < 1e-6);
+        assert!((haversine_m(o, p, EARTH_RADIUS_PAPER_M) - 144.22).abs() < 0.1);
     }
 
     #[test]

@@ -4,11 +4,16 @@
 //! through the core's synchroniser (the same code the firmware runs) into per-epoch samples,
 //! and [`inspect`] summarises a drive.
 
+pub mod attack;
 pub mod calibrate;
 pub mod detect;
+pub mod eval;
 pub mod input;
 pub mod inspect;
+pub mod output;
 pub mod replay;
+pub mod report;
+pub mod sim;
 
 /// The real-data folder for a test, or `None` (with the reason printed) when it is absent.
 /// In CI (`CI=true`) an absent folder is a failure, not a skip.

@@ -141,3 +141,56 @@ fn parse_row(
     }
     Ok((t, evs))
 }
+
+/// Writes a replay in this layout: one row per distinct event time; GNSS values held between
+/// fixes with `gnss_fix_age_s`; a vehicle signal's field is filled on the rows where it was
+/// observed and left empty elsewhere. With `attack_active`, adds that column (1 from the time
+/// given on). Reading the file back gives the same events.
+pub fn write(r: &Replay, attack_from: Option<f64>, mut out: impl std::io::Write) -> std::io::Result<()> {
+    let t0 = r.events.first().map_or(0.0, |e| e.t());
+    let mut header: Vec<&str> = COLUMNS.to_vec();
+    if attack_from.is_some() {
+        header.push("attack_active");
+    }
+    writeln!(out, "{}", header.join(","))?;
+    let mut last_fix: Option<Fix> = None;
+    let fmt = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x}"));
+    let mut i = 0;
+    while i < r.events.len() {
+        let t = r.events[i].t();
+        let mut new_fix = false;
+        let mut vals: [Option<f64>; 5] = [None; 5];
+        while i < r.events.len() && r.events[i].t() == t {
+            match r.events[i] {
+                Event::Fix(f) => {
+                    last_fix = Some(f);
+                    new_fix = true;
+                }
+                Event::Obs { sig, v, .. } => vals[sig.index()] = Some(v as f64),
+            }
+            i += 1;
+        }
+        let f = last_fix;
+        let row = [
+            format!("{}", t - t0),
+            String::new(), // not known for every source
+            fmt(f.map(|f| f.pos.lat_deg)),
+            fmt(f.map(|f| f.pos.lon_deg)),
+            (if new_fix { "1" } else { "0" }).to_string(),
+            fmt(f.map(|f| t - f.t)),
+            fmt(f.and_then(|f| f.speed_mps).map(f64::from)),
+            fmt(f.and_then(|f| f.course_deg).map(f64::from)),
+            fmt(vals[Signal::WheelSpeed.index()]),
+            fmt(vals[Signal::Steering.index()]),
+            fmt(vals[Signal::Pedal.index()]),
+            fmt(vals[Signal::LongAccel.index()]),
+            fmt(vals[Signal::YawRate.index()]),
+        ];
+        write!(out, "{}", row.join(","))?;
+        if let Some(a) = attack_from {
+            write!(out, ",{}", if t >= a { 1 } else { 0 })?;
+        }
+        writeln!(out)?;
+    }
+    Ok(())
+}

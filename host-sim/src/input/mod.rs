@@ -42,6 +42,8 @@ pub enum Format {
     Comma2k19,
     /// An OpenXC vehicle-interface JSON trace.
     OpenXc,
+    /// A drive made by `host-sim`'s kinematic simulator (never real data).
+    Simulated,
 }
 
 impl Format {
@@ -51,6 +53,7 @@ impl Format {
             Format::Hdd => "hdd",
             Format::Comma2k19 => "comma2k19",
             Format::OpenXc => "openxc",
+            Format::Simulated => "simulated",
         }
     }
 }
@@ -155,7 +158,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
         Some(Format::Hdd) => hdd::load(path, opts),
         Some(Format::Comma2k19) => comma2k19::load(path),
         Some(Format::OpenXc) => openxc::load(path, opts),
-        None => Err(InputError::file(
+        Some(Format::Simulated) | None => Err(InputError::file(
             path,
             "not a drive: expected a .csv drive file, an OpenXC .jsonl trace, a comma2k19 segment \
              folder (with processed_log/) or an HDD session folder (with general/csv/)",

@@ -1,0 +1,309 @@
+//! GNSS spoofing attacks on a replay.
+//!
+//! A spoofer controls everything the receiver reports, so every attack rewrites the fixes'
+//! position AND their reported speed and course, consistently with the spoofed track. Vehicle
+//! signals are never touched. Every attack has an onset time and a seed; from the onset to the
+//! end of the replay the attack is active (the ground truth per epoch).
+//!
+//! | kind | what the receiver reports from the onset | parameters (seeded) |
+//! |---|---|---|
+//! | `turn-by-turn` | the true track translated by a fixed offset: a different route that keeps the true route's turn sequence | offset 30 to 300 m, bearing 0 to 360 deg |
+//! | `overshoot` | the position frozen at the onset (speed 0, course held) while the car drives on | onset while moving, 5 to 15 s before a real turn |
+//! | `stop` | the position moving on along the road ahead (the car's own later track) at a plausible speed while the car stands | onset 1 s into a real standstill of >= 6 s; speed 5 to 15 m/s |
+//! | `wrong-turn` | where the car turns: the track mirrored about the onset heading (it turns the other way); where it goes straight: a 90 deg turn over 6 s, left or right | onset while moving |
+
+use crate::input::{Event, Replay};
+use crate::inspect;
+use detector_core::geo::{
+    angle_diff_deg, destination, from_local, haversine_m, initial_bearing_deg, to_local, wrap_360, LatLon,
+    EARTH_RADIUS_PAPER_M,
+};
+use detector_core::sample::{Fix, Sample};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+const R: f64 = EARTH_RADIUS_PAPER_M;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum AttackKind {
+    TurnByTurn,
+    Overshoot,
+    Stop,
+    WrongTurn,
+}
+
+impl AttackKind {
+    pub const ALL: [AttackKind; 4] = [AttackKind::TurnByTurn, AttackKind::Overshoot, AttackKind::Stop, AttackKind::WrongTurn];
+    pub fn name(self) -> &'static str {
+        match self {
+            AttackKind::TurnByTurn => "turn-by-turn",
+            AttackKind::Overshoot => "overshoot",
+            AttackKind::Stop => "stop",
+            AttackKind::WrongTurn => "wrong-turn",
+        }
+    }
+}
+
+/// The attack actually applied, with its drawn parameters.
+#[derive(Clone, Debug, Serialize)]
+pub struct AttackSpec {
+    pub kind: AttackKind,
+    pub seed: u64,
+    pub onset_t: f64,
+    /// Human-readable parameters (offset, speed, mode).
+    pub params: String,
+}
+
+/// An attacked replay with its ground truth.
+#[derive(Clone, Debug)]
+pub struct Attacked {
+    pub replay: Replay,
+    pub spec: AttackSpec,
+    /// True and perceived positions of every fix (same order as the replay's fixes).
+    pub true_track: Vec<(f64, LatLon)>,
+    pub perceived: Vec<(f64, LatLon)>,
+}
+
+impl Attacked {
+    /// Ground truth at time `t`: is the attack active?
+    pub fn active(&self, t: f64) -> bool {
+        t >= self.spec.onset_t
+    }
+}
+
+fn speed(s: &Sample) -> Option<f32> {
+    s.wheel_speed().get()
+}
+
+/// Times where `kind` makes sense on this drive (synchronised clean samples), in order.
+pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
+    let moving = |s: &Sample| speed(s).is_some_and(|v| v > 3.0);
+    let mut out = Vec::new();
+    if samples.len() < 20 {
+        return out;
+    }
+    let t_end = samples[samples.len() - 1].t;
+    match kind {
+        AttackKind::TurnByTurn | AttackKind::WrongTurn => {
+            // Every 20 s of driving with at least 15 s of drive left.
+            let mut next = samples[0].t + 10.0;
+            for s in samples {
+                if s.t >= next && moving(s) && t_end - s.t > 15.0 {
+                    out.push(s.t);
+                    next = s.t + 20.0;
+                }
+            }
+        }
+        AttackKind::Overshoot => {
+            for turn_t in turn_starts(samples) {
+                for lead in [12.0, 8.0] {
+                    if let Some(s) = samples.iter().find(|s| s.t >= turn_t - lead) {
+                        if moving(s) && s.t > samples[0].t + 5.0 && !out.contains(&s.t) {
+                            out.push(s.t);
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        AttackKind::Stop => {
+            let mut start: Option<f64> = None;
+            for s in samples {
+                match speed(s) {
+                    Some(v) if v < 0.3 => {
+                        let t0 = *start.get_or_insert(s.t);
+                        if s.t - t0 >= 6.0 && out.last().is_none_or(|&o| o < t0) {
+                            out.push(t0 + 1.0);
+                        }
+                    }
+                    _ => start = None,
+                }
+            }
+            // The spoofed track runs along the road ahead: there must be road ahead.
+            out.retain(|&t| t_end - t > 10.0);
+        }
+    }
+    out
+}
+
+/// Start times of real turns (> 60 deg within 60 m of track, as `inspect` counts them).
+pub fn turn_starts(samples: &[Sample]) -> Vec<f64> {
+    let mut pts: Vec<(f64, f64, f64)> = Vec::new(); // (t, cum distance, heading)
+    let mut last: Option<LatLon> = None;
+    let mut cum = 0.0;
+    for s in samples {
+        match last {
+            None => last = Some(s.pos),
+            Some(p) => {
+                let d = haversine_m(p, s.pos, R);
+                if d >= inspect::TRACK_STEP_M {
+                    cum += d;
+                    pts.push((s.t, cum, initial_bearing_deg(p, s.pos)));
+                    last = Some(s.pos);
+                }
+            }
+        }
+    }
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i + 1 < pts.len() {
+        let (mut net, mut j, mut hit) = (0.0, i + 1, false);
+        while j < pts.len() && pts[j].1 - pts[i].1 <= inspect::TURN_WINDOW_M {
+            net += angle_diff_deg(pts[j - 1].2, pts[j].2);
+            if net.abs() > inspect::TURN_MIN_DEG {
+                out.push(pts[i].0);
+                hit = true;
+                break;
+            }
+            j += 1;
+        }
+        i = if hit { j } else { i + 1 };
+    }
+    out
+}
+
+/// Applies `kind` at `onset_t` with parameters drawn from `seed`.
+pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Attacked {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e55_5f61_7474_6163);
+    let fixes: Vec<Fix> = replay.fixes().copied().collect();
+    let k0 = fixes.iter().position(|f| f.t >= onset_t).unwrap_or(fixes.len());
+    let mut new = fixes.clone();
+    let has_speed = fixes.iter().any(|f| f.speed_mps.is_some());
+    let has_course = fixes.iter().any(|f| f.course_deg.is_some());
+    let params;
+    match kind {
+        AttackKind::TurnByTurn => {
+            let d: f64 = rng.random_range(30.0..300.0);
+            let b: f64 = rng.random_range(0.0..360.0);
+            params = format!("offset {d:.0} m toward {b:.0} deg");
+            for f in new.iter_mut().skip(k0) {
+                f.pos = destination(f.pos, b, d, R);
+            }
+        }
+        AttackKind::Overshoot => {
+            params = "position frozen, speed 0".into();
+            if let Some(p) = fixes.get(k0) {
+                let course = fixes[..=k0].iter().rev().find_map(|f| f.course_deg);
+                for f in new.iter_mut().skip(k0) {
+                    f.pos = p.pos;
+                    f.speed_mps = has_speed.then_some(0.0);
+                    f.course_deg = if has_course { course } else { None };
+                }
+            }
+        }
+        AttackKind::Stop => {
+            let v: f64 = rng.random_range(5.0..15.0);
+            params = format!("moves on along the road at {v:.1} m/s");
+            // The road ahead: the car's own later track, as a polyline with arc lengths.
+            // Points under 2 m apart (standing jitter) are dropped so bearings mean something.
+            let mut road: Vec<LatLon> = Vec::new();
+            for f in &fixes[k0.min(fixes.len())..] {
+                if road.last().is_none_or(|&q| haversine_m(q, f.pos, R) >= 2.0) {
+                    road.push(f.pos);
+                }
+            }
+            let mut arc = vec![0.0];
+            for w in road.windows(2) {
+                arc.push(arc.last().unwrap() + haversine_m(w[0], w[1], R));
+            }
+            for f in new.iter_mut().skip(k0) {
+                let a = v * (f.t - onset_t).max(0.0);
+                let (pos, brg) = along(&road, &arc, a);
+                f.pos = pos;
+                f.speed_mps = has_speed.then_some(v as f32);
+                if has_course {
+                    f.course_deg = Some(brg as f32);
+                }
+            }
+        }
+        AttackKind::WrongTurn => {
+            let turn_soon = has_turn_within(&fixes, k0, 20.0);
+            let origin = fixes.get(k0).map(|f| f.pos).unwrap_or_default();
+            let h0 = heading_at(&fixes, k0);
+            if turn_soon {
+                params = format!("mirrored about the onset heading {h0:.0} deg (turns the other way)");
+                let (ue, un) = (h0.to_radians().sin(), h0.to_radians().cos());
+                for f in new.iter_mut().skip(k0) {
+                    let (e, n) = to_local(origin, f.pos, R);
+                    let dot = e * ue + n * un;
+                    f.pos = from_local(origin, 2.0 * dot * ue - e, 2.0 * dot * un - n, R);
+                    if let Some(c) = f.course_deg {
+                        f.course_deg = Some(wrap_360(2.0 * h0 - c as f64) as f32);
+                    }
+                }
+            } else {
+                let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                params = format!("turns {} by 90 deg over 6 s where the car goes straight", if sign > 0.0 { "right" } else { "left" });
+                let mut prev_true = origin;
+                let mut prev_new = origin;
+                for (k, f) in new.iter_mut().enumerate().skip(k0) {
+                    let phi = sign * 90.0 * ((f.t - onset_t) / 6.0).clamp(0.0, 1.0);
+                    let truth = fixes[k].pos;
+                    let (e, n) = to_local(prev_true, truth, R);
+                    let (s, c) = phi.to_radians().sin_cos();
+                    // Rotate the true step clockwise by phi (bearings grow clockwise).
+                    let (e2, n2) = (e * c + n * s, -e * s + n * c);
+                    let p = from_local(prev_new, e2, n2, R);
+                    prev_true = truth;
+                    prev_new = p;
+                    f.pos = p;
+                    if let Some(cd) = f.course_deg {
+                        f.course_deg = Some(wrap_360(cd as f64 + phi) as f32);
+                    }
+                }
+            }
+        }
+    }
+    let mut events = Vec::with_capacity(replay.events.len());
+    let mut it = new.iter();
+    for e in &replay.events {
+        events.push(match e {
+            Event::Fix(_) => Event::Fix(*it.next().expect("same number of fixes")),
+            o => *o,
+        });
+    }
+    let mut r = replay.clone();
+    r.events = events;
+    Attacked {
+        replay: r,
+        spec: AttackSpec { kind, seed, onset_t, params },
+        true_track: fixes.iter().map(|f| (f.t, f.pos)).collect(),
+        perceived: new.iter().map(|f| (f.t, f.pos)).collect(),
+    }
+}
+
+fn along(road: &[LatLon], arc: &[f64], a: f64) -> (LatLon, f64) {
+    if road.len() < 2 {
+        return (road.first().copied().unwrap_or_default(), 0.0);
+    }
+    let i = arc.partition_point(|&x| x <= a).clamp(1, road.len() - 1);
+    let brg = initial_bearing_deg(road[i - 1], road[i]);
+    if a >= arc[arc.len() - 1] {
+        let last_brg = initial_bearing_deg(road[road.len() - 2], road[road.len() - 1]);
+        return (destination(road[road.len() - 1], last_brg, a - arc[arc.len() - 1], R), last_brg);
+    }
+    let seg = arc[i] - arc[i - 1];
+    let w = if seg > 0.0 { (a - arc[i - 1]) / seg } else { 0.0 };
+    (destination(road[i - 1], brg, w * seg, R), brg)
+}
+
+fn heading_at(fixes: &[Fix], k0: usize) -> f64 {
+    // Bearing over the last ~20 m of track before the onset.
+    let Some(p) = fixes.get(k0) else { return 0.0 };
+    for f in fixes[..k0].iter().rev() {
+        if haversine_m(f.pos, p.pos, R) > 20.0 {
+            return initial_bearing_deg(f.pos, p.pos);
+        }
+    }
+    fixes.get(k0).and_then(|f| f.course_deg).map_or(0.0, |c| c as f64)
+}
+
+fn has_turn_within(fixes: &[Fix], k0: usize, secs: f64) -> bool {
+    let Some(f0) = fixes.get(k0) else { return false };
+    let h0 = heading_at(fixes, k0);
+    fixes[k0..].iter().take_while(|f| f.t - f0.t <= secs).any(|f| {
+        haversine_m(f0.pos, f.pos, R) > 20.0 && angle_diff_deg(h0, initial_bearing_deg(f0.pos, f.pos)).abs() > 30.0
+    })
+}

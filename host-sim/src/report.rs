@@ -1,0 +1,237 @@
+//! The evaluation report: `report.json`, `report.md` and the figures (SVG and PNG).
+
+use crate::attack::AttackKind;
+use crate::eval::{Report, Scenario};
+use crate::output::{render_atomic, write_atomic};
+use detector_core::geo::{to_local, EARTH_RADIUS_PAPER_M};
+use detector_core::strategy::StrategyId;
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Writes everything under `out`; returns the files written.
+pub fn write_all(r: &Report, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    let json = out.join("report.json");
+    write_atomic(&json, |w| serde_json::to_writer_pretty(&mut *w, r).map_err(std::io::Error::other))?;
+    files.push(json);
+    let figs = figures(r, &out.join("figures"))?;
+    let md = out.join("report.md");
+    let text = markdown(r, &figs, out);
+    write_atomic(&md, |w| w.write_all(text.as_bytes()))?;
+    files.push(md);
+    files.extend(figs);
+    Ok(files)
+}
+
+fn opt(v: Option<f64>, unit: &str) -> String {
+    v.map_or("-".into(), |x| format!("{x:.1}{unit}"))
+}
+
+/// The paper's Table 3, regenerated: scenarios in which each strategy fired, per attack kind.
+pub fn table3(r: &Report) -> String {
+    let mut s = String::from("| attack | scenarios | detected |");
+    for st in StrategyId::ALL {
+        let _ = write!(s, " {} |", st.name());
+    }
+    s.push_str("\n|---|---|---|");
+    for _ in StrategyId::ALL {
+        s.push_str("---|");
+    }
+    s.push('\n');
+    for (k, a) in &r.attacks {
+        let _ = write!(s, "| {k} | {} | {} |", a.scenarios, a.detected);
+        for st in StrategyId::ALL {
+            let _ = write!(s, " {} |", a.strategies[st.name()]);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+pub fn headline(r: &Report) -> String {
+    let mut s = format!(
+        "data: {} | clean: {} drives, {:.2} h ({} drives / {:.2} h with wheel speed, judged), false alarms {} ({:.3}/h)\n",
+        r.data, r.clean.drives, r.clean.hours, r.clean.drives_judged, r.clean.hours_judged, r.clean.false_alarms, r.clean.false_alarms_per_hour
+    );
+    for (k, a) in &r.attacks {
+        let _ = writeln!(
+            s,
+            "{k:>13}: detected {}/{} ({:.0} %), time to detect median {} p95 {} max {} (sources: {})",
+            a.detected, a.scenarios, 100.0 * a.detection_rate, opt(a.ttd_median_s, " s"), opt(a.ttd_p95_s, " s"), opt(a.ttd_max_s, " s"), a.sources.join(", ")
+        );
+    }
+    s
+}
+
+fn markdown(r: &Report, figs: &[PathBuf], out: &Path) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# GNSS spoofing detection: evaluation report\n");
+    if r.data == "simulated" {
+        let _ = writeln!(s, "**Data: SIMULATED drives** (no `../shared/data` found). These numbers describe the simulator, not real driving.\n");
+    } else {
+        let _ = writeln!(s, "Data: real drives from `../shared/data`.\n");
+    }
+    let _ = writeln!(s, "## Clean drives (false alarms)\n");
+    let _ = writeln!(s, "{} drives, {:.2} h; the strategies run on the {} drives with wheel speed ({:.2} h). False alarms: **{}** ({:.3} per hour).\n",
+        r.clean.drives, r.clean.hours, r.clean.drives_judged, r.clean.hours_judged, r.clean.false_alarms, r.clean.false_alarms_per_hour);
+    let _ = writeln!(s, "| drive | source | hours | profile | judged | false alarms |\n|---|---|---|---|---|---|");
+    for d in &r.clean.per_drive {
+        let _ = writeln!(s, "| {} | {} | {:.3} | {} | {} | {} |", d.drive, d.source, d.hours, d.profile, if d.judged { "yes" } else { "no (no wheel speed: degraded)" }, d.false_alarms);
+    }
+    let _ = writeln!(s, "\n## Attacks\n");
+    let _ = writeln!(s, "| attack | scenarios | hosting drives | sources | detected | rate | TTD median | p95 | max | TTD epochs median / p95 / max |\n|---|---|---|---|---|---|---|---|---|---|");
+    for (k, a) in &r.attacks {
+        let _ = writeln!(s, "| {k} | {} | {} | {} | {} | {:.0} % | {} | {} | {} | {} / {} / {} |", a.scenarios, a.hosting_drives, a.sources.join(", "), a.detected, 100.0 * a.detection_rate,
+            opt(a.ttd_median_s, " s"), opt(a.ttd_p95_s, " s"), opt(a.ttd_max_s, " s"), opt(a.ttd_median_epochs, ""), opt(a.ttd_p95_epochs, ""), opt(a.ttd_max_epochs, ""));
+    }
+    let _ = writeln!(s, "\n## Table 3: which strategy fired (scenarios)\n\n{}", table3(r));
+    let _ = writeln!(s, "## Missed scenarios\n");
+    let mut any = false;
+    for (k, a) in &r.attacks {
+        for m in &a.missed {
+            let _ = writeln!(s, "- {k}: {m}");
+            any = true;
+        }
+    }
+    if !any {
+        let _ = writeln!(s, "None.");
+    }
+    let _ = writeln!(s, "\n## Scenarios\n\n| id | drive | onset (s) | parameters | detected | TTD (s) | strategies | pre-onset alarms |\n|---|---|---|---|---|---|---|---|");
+    for sc in &r.scenarios {
+        let _ = writeln!(s, "| {} | {} | {:.1} | {} | {} | {} | {} | {} |", sc.id, sc.drive, sc.onset_t, sc.params, sc.detected, opt(sc.ttd_s, ""), sc.strategies.join(", "), sc.pre_onset_alarms);
+    }
+    let _ = writeln!(s, "\n## Configuration\n\n```json\n{}\n```\n", serde_json::to_string_pretty(&r.config).unwrap_or_default());
+    let _ = writeln!(s, "## Figures\n");
+    for f in figs.iter().filter(|f| f.extension().is_some_and(|e| e == "svg")) {
+        let rel = f.strip_prefix(out).unwrap_or(f);
+        let _ = writeln!(s, "![{}]({})", rel.display(), rel.display());
+    }
+    s
+}
+
+fn font_ok() -> bool {
+    use std::sync::OnceLock;
+    static OK: OnceLock<bool> = OnceLock::new();
+    *OK.get_or_init(|| {
+        for p in ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"] {
+            if let Ok(bytes) = std::fs::read(p) {
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                    return true;
+                }
+            }
+        }
+        false
+    })
+}
+
+fn figures(r: &Report, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    let with_text = font_ok();
+    let mut shown = std::collections::BTreeSet::new();
+    for sc in &r.scenarios {
+        let tbt = sc.kind == AttackKind::TurnByTurn;
+        // Every turn-by-turn scenario (Fig. 5 of the paper), and a track map of the first of each other kind.
+        if !tbt && !shown.insert(sc.kind) {
+            continue;
+        }
+        for ext in ["svg", "png"] {
+            if ext == "png" && !with_text {
+                continue; // no font on this machine: SVG only
+            }
+            if tbt {
+                let p = dir.join(format!("{}-residual.{ext}", sc.id));
+                render_atomic(&p, |tmp| residual_plot(sc, tmp, ext)).map_err(anyhow::Error::msg)?;
+                out.push(p);
+            }
+            let p = dir.join(format!("{}-track.{ext}", sc.id));
+            render_atomic(&p, |tmp| track_plot(sc, tmp, ext)).map_err(anyhow::Error::msg)?;
+            out.push(p);
+        }
+    }
+    Ok(out)
+}
+
+fn residual_plot(sc: &Scenario, path: &Path, ext: &str) -> Result<(), String> {
+    let size = (900, 500);
+    if ext == "svg" {
+        residual_draw(sc, SVGBackend::new(path, size).into_drawing_area())
+    } else {
+        residual_draw(sc, BitMapBackend::new(path, size).into_drawing_area())
+    }
+}
+
+fn residual_draw<DB: DrawingBackend>(sc: &Scenario, root: DrawingArea<DB, plotters::coord::Shift>) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let pts: Vec<(f64, f64, f64)> = sc.trace.iter().filter_map(|p| Some((p.t, p.residual_m? as f64, p.threshold_m? as f64))).collect();
+    let (x0, x1) = (-30.0f64, 60.0f64);
+    let ymax = pts.iter().filter(|p| p.0 >= x0 && p.0 <= x1).map(|p| p.1.max(p.2)).fold(1.0, f64::max) * 1.1;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{}: |GNSS shift - predicted| vs threshold ({})", sc.id, sc.params), ("sans-serif", 18))
+        .margin(10).x_label_area_size(35).y_label_area_size(55)
+        .build_cartesian_2d(x0..x1, 0.0..ymax).map_err(e)?;
+    chart.configure_mesh().x_desc("time from onset (s)").y_desc("metres").draw().map_err(e)?;
+    let inwin = |p: &&(f64, f64, f64)| p.0 >= x0 && p.0 <= x1;
+    // The onset first, so the residual spike at t = 0 is drawn over it.
+    chart.draw_series(LineSeries::new(vec![(0.0, 0.0), (0.0, ymax)], BLACK.mix(0.5).stroke_width(1))).map_err(e)?
+        .label("attack onset").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    chart.draw_series(pts.iter().filter(inwin).map(|p| Circle::new((p.0, p.1), 2, BLUE.filled()))).map_err(e)?;
+    chart.draw_series(LineSeries::new(pts.iter().filter(inwin).map(|p| (p.0, p.1)), BLUE.stroke_width(2))).map_err(e)?
+        .label("|residual|").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+    chart.draw_series(LineSeries::new(pts.iter().filter(inwin).map(|p| (p.0, p.2)), &RED)).map_err(e)?
+        .label("threshold").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(e)?;
+    root.present().map_err(e)
+}
+
+fn track_plot(sc: &Scenario, path: &Path, ext: &str) -> Result<(), String> {
+    let size = (700, 700);
+    if ext == "svg" {
+        track_draw(sc, SVGBackend::new(path, size).into_drawing_area())
+    } else {
+        track_draw(sc, BitMapBackend::new(path, size).into_drawing_area())
+    }
+}
+
+fn track_draw<DB: DrawingBackend>(sc: &Scenario, root: DrawingArea<DB, plotters::coord::Shift>) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let Some(&(_, origin)) = sc.true_track.first() else { return root.present().map_err(e) };
+    let keep = |t: f64| t >= sc.onset_t - 30.0 && t <= sc.onset_t + 60.0;
+    let loc = |v: &[(f64, detector_core::geo::LatLon)]| -> Vec<(f64, f64)> {
+        v.iter().filter(|p| keep(p.0)).map(|p| to_local(origin, p.1, EARTH_RADIUS_PAPER_M)).collect()
+    };
+    let (tt, pp) = (loc(&sc.true_track), loc(&sc.perceived));
+    let all = tt.iter().chain(pp.iter());
+    let (mut xa, mut xb, mut ya, mut yb) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in all {
+        xa = xa.min(x); xb = xb.max(x); ya = ya.min(y); yb = yb.max(y);
+    }
+    if xa > xb { return root.present().map_err(e); }
+    let span = (xb - xa).max(yb - ya).max(50.0) * 1.1;
+    let (cx, cy) = ((xa + xb) / 2.0, (ya + yb) / 2.0);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{}: true vs perceived track ({} s before to 60 s after onset)", sc.id, 30), ("sans-serif", 16))
+        .margin(10).x_label_area_size(35).y_label_area_size(55)
+        .build_cartesian_2d(cx - span / 2.0..cx + span / 2.0, cy - span / 2.0..cy + span / 2.0).map_err(e)?;
+    chart.configure_mesh().x_desc("east (m)").y_desc("north (m)").draw().map_err(e)?;
+    chart.draw_series(LineSeries::new(tt.clone(), GREEN.stroke_width(3))).map_err(e)?
+        .label("true (vehicle)").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], GREEN));
+    chart.draw_series(LineSeries::new(pp.clone(), RED.stroke_width(2))).map_err(e)?
+        .label("perceived (GNSS, spoofed)").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+    if let Some(k) = sc.true_track.iter().position(|p| p.0 >= sc.onset_t) {
+        let on = to_local(origin, sc.true_track[k].1, EARTH_RADIUS_PAPER_M);
+        chart.draw_series(std::iter::once(Circle::new(on, 6, BLACK.filled()))).map_err(e)?
+            .label("onset").legend(|(x, y)| Circle::new((x + 10, y), 4, BLACK.filled()));
+    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(e)?;
+    root.present().map_err(e)
+}

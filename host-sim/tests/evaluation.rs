@@ -1,0 +1,90 @@
+//! The evaluation harness on the real drives: coverage, results from verdicts, determinism.
+
+use detector_core::sync::SyncConfig;
+use host_sim::attack::{self, AttackKind};
+use host_sim::eval::{self, Drive, EvalOptions};
+use host_sim::input::{self, LoadOptions};
+use host_sim::require_data;
+
+fn drives(d: &std::path::Path) -> Vec<Drive> {
+    input::discover(&d.join("drives")).unwrap().iter()
+        .map(|f| Drive::new(input::load(f, &LoadOptions::default()).unwrap(), SyncConfig::default()))
+        .collect()
+}
+
+#[test]
+fn real_drives_paper_attacks_detected_without_false_alarms() {
+    let Some(d) = require_data("real_drives_paper_attacks_detected_without_false_alarms") else { return };
+    let ds = drives(&d);
+    let r = eval::evaluate(&ds, &EvalOptions::default(), "real", &|| {});
+    assert_eq!(r.clean.drives, 30);
+    assert_eq!(r.clean.false_alarms, 0, "{:?}", r.clean.per_drive);
+    for kind in AttackKind::ALL {
+        let a = &r.attacks[kind.name()];
+        assert!(a.scenarios >= 10, "{}: {} scenarios", kind.name(), a.scenarios);
+        assert!(a.sources.len() >= 2, "{}: sources {:?}", kind.name(), a.sources);
+    }
+    for kind in ["turn-by-turn", "overshoot", "stop"] {
+        assert_eq!(r.attacks[kind].detection_rate, 1.0, "{kind}: missed {:?}", r.attacks[kind].missed);
+    }
+    assert!(r.scenarios.iter().all(|s| s.pre_onset_alarms == 0));
+    // Table 3 rows as the strategies of this detector give them.
+    assert_eq!(r.attacks["turn-by-turn"].strategies["location_shift"], 10);
+    assert_eq!(r.attacks["stop"].strategies["motion"], 10);
+    assert_eq!(r.attacks["overshoot"].strategies["motion"], 10);
+}
+
+#[test]
+fn numbers_come_from_verdicts_a_blind_detector_detects_nothing() {
+    let Some(d) = require_data("numbers_come_from_verdicts_a_blind_detector_detects_nothing") else { return };
+    let ds = drives(&d);
+    let o = EvalOptions {
+        tweak: Some(|c| {
+            c.shift.predictor_error_m = f32::INFINITY;
+            c.motion.persist_s = f32::INFINITY;
+        }),
+        ..Default::default()
+    };
+    let r = eval::evaluate(&ds, &o, "real", &|| {});
+    for (k, a) in &r.attacks {
+        assert!(a.scenarios >= 10);
+        assert_eq!(a.detected, 0, "{k}");
+        assert_eq!(a.detection_rate, 0.0);
+    }
+}
+
+#[test]
+fn evaluation_is_deterministic_for_a_seed() {
+    let Some(d) = require_data("evaluation_is_deterministic_for_a_seed") else { return };
+    let ds = drives(&d);
+    let a = serde_json::to_string(&eval::evaluate(&ds, &EvalOptions::default(), "real", &|| {})).unwrap();
+    let b = serde_json::to_string(&eval::evaluate(&ds, &EvalOptions::default(), "real", &|| {})).unwrap();
+    assert_eq!(a, b);
+    let c = serde_json::to_string(&eval::evaluate(&ds, &EvalOptions { seed: 2, ..Default::default() }, "real", &|| {})).unwrap();
+    assert_ne!(a, c, "another seed draws other scenarios");
+}
+
+#[test]
+fn attacks_rewrite_position_speed_and_course_consistently() {
+    let Some(d) = require_data("attacks_rewrite_position_speed_and_course_consistently") else { return };
+    let r = input::load(&d.join("drives/comma2k19/b0c9d2329ad1606b_2018-08-02--08-34-47_seg40.csv"), &LoadOptions::default()).unwrap();
+    let onset = 20.0;
+    let fixes = |r: &input::Replay| r.fixes().copied().collect::<Vec<_>>();
+    let clean = fixes(&r);
+    // turn-by-turn: constant offset after the onset, untouched before; speed and course kept.
+    let a = attack::apply(&r, AttackKind::TurnByTurn, 7, onset);
+    let f = fixes(&a.replay);
+    let off: Vec<f64> = clean.iter().zip(&f).filter(|(c, _)| c.t >= onset)
+        .map(|(c, x)| detector_core::geo::haversine_m(c.pos, x.pos, 6_378_000.0)).collect();
+    assert!(off.iter().all(|o| (o - off[0]).abs() < 0.5 && *o >= 30.0 && *o <= 300.0), "{:?}", &off[..3]);
+    assert!(clean.iter().zip(&f).filter(|(c, _)| c.t < onset).all(|(c, x)| c == x));
+    // overshoot: frozen, reported speed 0.
+    let a = attack::apply(&r, AttackKind::Overshoot, 7, onset);
+    let f: Vec<_> = fixes(&a.replay).into_iter().filter(|x| x.t >= onset).collect();
+    assert!(f.iter().all(|x| x.pos == f[0].pos && x.speed_mps == Some(0.0)));
+    // ground truth
+    assert!(!a.active(onset - 0.1) && a.active(onset));
+    // the vehicle signals are never touched
+    let obs = |r: &input::Replay| r.events.iter().filter(|e| matches!(e, input::Event::Obs { .. })).copied().collect::<Vec<_>>();
+    assert_eq!(obs(&a.replay), obs(&r));
+}

@@ -1,0 +1,97 @@
+//! `host-sim attack`, `eval` and `demo` end to end.
+
+use system_tests::{data_dir, host_sim};
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("gnss-guard-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn eval_writes_report_markdown_and_figures() {
+    let Some(d) = data_dir("eval_writes_report_markdown_and_figures") else { return };
+    let out = tmp("eval");
+    let o = host_sim(&["eval", "--data", d.to_str().unwrap(), "--scenarios", "10", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    for k in ["drives", "hours", "false_alarms", "false_alarms_per_hour"] {
+        assert!(r["clean"][k].is_number(), "clean.{k}");
+    }
+    for kind in ["turn-by-turn", "overshoot", "stop", "wrong-turn"] {
+        let a = &r["attacks"][kind];
+        for k in ["scenarios", "detected", "detection_rate", "ttd_median_s", "ttd_p95_s", "ttd_max_s", "strategies"] {
+            assert!(a.get(k).is_some(), "{kind}.{k}");
+        }
+        assert!(a["scenarios"].as_u64().unwrap() >= 10);
+    }
+    assert!(r["config"]["profiles"].is_object());
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("Table 3") && md.contains("| turn-by-turn |"));
+    let figs: Vec<_> = std::fs::read_dir(out.join("figures")).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    assert!(figs.iter().any(|f| f.ends_with("-residual.svg")) && figs.iter().any(|f| f.ends_with("-track.svg")));
+    assert!(figs.iter().any(|f| f.ends_with("-residual.png")), "PNG figures (DejaVu font from fonts-dejavu-core)");
+    assert!(!figs.iter().any(|f| f.contains(".tmp")), "no temporary files left");
+    let stdout = String::from_utf8(o.stdout).unwrap();
+    assert!(stdout.contains("data: real") && stdout.contains("Table 3"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn demo_runs_without_the_data_folder_on_a_simulated_drive() {
+    let out = tmp("demo-sim");
+    let o = std::process::Command::new(system_tests::host_sim_bin())
+        .args(["demo", "--out", out.to_str().unwrap()])
+        .env("GNSS_DATA_DIR", "/nonexistent-gnss-data")
+        .output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = String::from_utf8(o.stdout).unwrap();
+    assert!(s.contains("SIMULATED") && s.contains("data: simulated"), "{s}");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(r["data"], "simulated");
+    assert_eq!(r["clean"]["false_alarms"], 0);
+    assert!(std::fs::read_to_string(out.join("report.md")).unwrap().contains("SIMULATED"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn demo_uses_the_real_drives_when_present() {
+    let Some(d) = data_dir("demo_uses_the_real_drives_when_present") else { return };
+    let out = tmp("demo-real");
+    let o = host_sim(&["demo", "--data", d.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success());
+    let s = String::from_utf8(o.stdout).unwrap();
+    assert!(s.contains("REAL drives") && s.contains("data: real"), "{s}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn attack_cli_writes_the_common_layout_with_ground_truth() {
+    let Some(d) = data_dir("attack_cli_writes_the_common_layout_with_ground_truth") else { return };
+    let out = tmp("attack");
+    std::fs::create_dir_all(&out).unwrap();
+    let src = d.join("drives/openxc_ford/dearborn_2012-03-26_drivingnew.csv");
+    for kind in ["turn-by-turn", "overshoot", "stop", "wrong-turn"] {
+        let f = out.join(format!("{kind}.csv"));
+        let o = host_sim(&["attack", "--kind", kind, "--seed", "3", src.to_str().unwrap(), "-o", f.to_str().unwrap()]);
+        assert!(o.status.success(), "{kind}: {}", String::from_utf8_lossy(&o.stderr));
+        let text = std::fs::read_to_string(&f).unwrap();
+        let header = text.lines().next().unwrap();
+        assert!(header.starts_with("t_s,unix_time_s,lat_deg,lon_deg,gnss_new_fix") && header.ends_with(",attack_active"), "{header}");
+        assert!(text.lines().any(|l| l.ends_with(",1")) && text.lines().skip(1).any(|l| l.ends_with(",0")));
+        // The attacked file is itself a drive: detect raises the alarm after the onset.
+        let o = host_sim(&["detect", "--json", f.to_str().unwrap()]);
+        assert!(o.status.success());
+        let last: serde_json::Value = serde_json::from_str(String::from_utf8(o.stdout).unwrap().lines().last().unwrap()).unwrap();
+        if kind != "wrong-turn" {
+            assert_eq!(last["summary"]["alarm"], true, "{kind}");
+        }
+    }
+    // A kind the drive cannot host: a clear error, exit 2.
+    let hw = d.join("drives/comma2k19/b0c9d2329ad1606b_2018-08-02--08-34-47_seg40.csv");
+    let o = host_sim(&["attack", "--kind", "stop", hw.to_str().unwrap(), "-o", out.join("x.csv").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cannot host a stop attack"));
+    assert!(!out.join("x.csv").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
