@@ -13,6 +13,7 @@ use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 use crate::strategy::location_shift::{ShiftConfig, ShiftOutcome, ShiftPredictor};
 use crate::strategy::motion::{Disagreement, Motion, MotionConfig, MotionOutcome};
+use crate::strategy::turn::{TemplateSet, TurnConfig, TurnOutcome, TurnStrategy};
 use crate::strategy::{StrategyId, StrategySet};
 
 /// All tuning of the detector, with documented defaults ([`Config::for_profile`]).
@@ -20,6 +21,7 @@ use crate::strategy::{StrategyId, StrategySet};
 pub struct Config {
     pub shift: ShiftConfig,
     pub motion: MotionConfig,
+    pub turn: TurnConfig,
 }
 
 impl Config {
@@ -42,6 +44,7 @@ impl Config {
                 pos_move_mps: p.pos_speed_move_mps,
                 persist_s: 3.0,
             },
+            turn: TurnConfig::default(),
         }
     }
 }
@@ -144,6 +147,8 @@ pub struct Verdict {
     pub shift: Option<ShiftOutcome>,
     /// Strategy 3's numbers, when it ran.
     pub motion: Option<MotionOutcome>,
+    /// Strategy 2's judgement, at the epochs where a steering segment ended or GNSS turned.
+    pub turn: Option<TurnOutcome>,
     /// Latched alarm.
     pub alarm: bool,
     pub first_alarm: Option<FirstAlarm>,
@@ -152,18 +157,26 @@ pub struct Verdict {
 /// The streaming detector: one [`Sample`] in per epoch, one [`Verdict`] out. No allocation,
 /// no panic on any input.
 #[derive(Clone, Debug)]
-pub struct Detector<P: ShiftPredictor> {
+pub struct Detector<'t, P: ShiftPredictor> {
     cfg: Config,
     predictor: P,
     motion: Motion,
+    turn: Option<TurnStrategy<'t>>,
     prev_t: Option<f64>,
     epoch: u32,
     first_alarm: Option<FirstAlarm>,
 }
 
-impl<P: ShiftPredictor> Detector<P> {
+impl<'t, P: ShiftPredictor> Detector<'t, P> {
+    /// A detector with strategies 1 and 3 only.
     pub fn new(cfg: Config, predictor: P) -> Self {
-        Self { cfg, predictor, motion: Motion::new(cfg.motion), prev_t: None, epoch: 0, first_alarm: None }
+        Self { cfg, predictor, motion: Motion::new(cfg.motion), turn: None, prev_t: None, epoch: 0, first_alarm: None }
+    }
+
+    /// Adds strategy 2 with these turn templates.
+    pub fn with_turns(mut self, templates: TemplateSet<'t>) -> Self {
+        self.turn = Some(TurnStrategy::new(self.cfg.turn, Some(templates)));
+        self
     }
 
     pub fn config(&self) -> &Config {
@@ -177,6 +190,9 @@ impl<P: ShiftPredictor> Detector<P> {
     fn restart(&mut self) {
         self.predictor.reset();
         self.motion.reset();
+        if let Some(t) = self.turn.as_mut() {
+            t.reset();
+        }
     }
 
     pub fn step(&mut self, s: &Sample) -> Verdict {
@@ -191,12 +207,17 @@ impl<P: ShiftPredictor> Detector<P> {
             reasons: Reasons::default(),
             shift: None,
             motion: None,
+            turn: None,
             alarm: false,
             first_alarm: self.first_alarm,
         };
+        let has_turn = self.turn.is_some();
         let all_degraded = |v: &mut Verdict| {
             v.degraded.insert(StrategyId::LocationShift);
             v.degraded.insert(StrategyId::Motion);
+            if has_turn {
+                v.degraded.insert(StrategyId::Turn);
+            }
         };
         if !s.t.is_finite() || !s.pos.is_valid() {
             self.restart();
@@ -257,6 +278,26 @@ impl<P: ShiftPredictor> Detector<P> {
             None => {
                 v.degraded.insert(StrategyId::Motion);
                 v.reasons.insert(Reason::NoMotionInputs);
+            }
+        }
+
+        // Strategy 2.
+        if let Some(ts) = self.turn.as_mut() {
+            match ts.step(s) {
+                Some(o) => {
+                    v.ran.insert(StrategyId::Turn);
+                    if let Some(o) = o {
+                        if o.mismatch.is_some() {
+                            v.fired.insert(StrategyId::Turn);
+                            v.reasons.insert(Reason::TurnMismatch);
+                        }
+                        v.turn = Some(o);
+                    }
+                }
+                None => {
+                    v.degraded.insert(StrategyId::Turn);
+                    v.reasons.insert(Reason::NoTurnInputs);
+                }
             }
         }
 

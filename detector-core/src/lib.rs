@@ -18,6 +18,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod crc32;
 pub mod geo;
 pub mod sample;
 pub mod sync;

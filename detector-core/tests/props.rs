@@ -12,7 +12,8 @@ use proptest::prelude::*;
 fn wild_f64() -> impl Strategy<Value = f64> {
     prop_oneof![
         Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY), Just(0.0), Just(-0.0),
-        Just(1e300), Just(-1e300), Just(f64::MIN_POSITIVE), -1e6..1e6f64, 0.0..100.0f64,
+        Just(1e300), Just(-1e300), Just(f64::MIN_POSITIVE), Just(1.7e9), -1e6..1e6f64, 0.0..100.0f64,
+        1.3e9..1.3e9 + 100.0,
     ]
 }
 
@@ -60,7 +61,8 @@ proptest! {
 
     #[test]
     fn detector_survives_anything_and_still_detects(garbage in proptest::collection::vec(sample(), 0..60)) {
-        let mut d = Detector::new(Config::for_profile(&LOGGER_1HZ), KinematicPredictor::default());
+        let set = detector_core::strategy::turn::TemplateSet::parse(detector_core::strategy::turn::DEFAULT_TEMPLATES).unwrap();
+        let mut d = Detector::new(Config::for_profile(&LOGGER_1HZ), KinematicPredictor::default()).with_turns(set);
         for s in &garbage {
             let v = d.step(s);
             // A verdict is always coherent: nothing both ran and was degraded.

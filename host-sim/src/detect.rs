@@ -4,6 +4,7 @@ use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::profile::{self, ReceiverProfile};
 use detector_core::sample::Sample;
 use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
 use detector_core::strategy::StrategyId;
 use serde::Serialize;
 use serde_json::{json, Value};
@@ -19,9 +20,14 @@ pub fn profile_of(samples: &[Sample]) -> &'static ReceiverProfile {
     profile::for_rate(1.0 / dts[dts.len() / 2] as f64)
 }
 
-/// Verdicts of the kinematic-predictor detector, one per sample.
+/// The default turn templates (strategy 2), validated.
+pub fn default_templates() -> TemplateSet<'static> {
+    TemplateSet::parse(DEFAULT_TEMPLATES).expect("the committed template blob is valid")
+}
+
+/// Verdicts of the full detector (kinematic predictor, all strategies), one per sample.
 pub fn run(samples: &[Sample], cfg: Config) -> Vec<Verdict> {
-    let mut d = Detector::new(cfg, KinematicPredictor::default());
+    let mut d = Detector::new(cfg, KinematicPredictor::default()).with_turns(default_templates());
     samples.iter().map(|s| d.step(s)).collect()
 }
 
@@ -45,6 +51,10 @@ pub fn verdict_json(v: &Verdict) -> Value {
     }
     if let Some(m) = v.motion {
         o["motion"] = json!({"wheel": format!("{:?}", m.wheel).to_lowercase(), "gnss": format!("{:?}", m.gnss).to_lowercase(), "disagree_s": m.disagree_s});
+    }
+    if let Some(t) = v.turn {
+        o["turn"] = json!({"steering": t.steering.name(), "distance": t.distance, "gnss_change_deg": t.gnss_change_deg, "steering_change_deg": t.steering_change_deg,
+            "mismatch": t.mismatch.map(|m| format!("{m:?}")), "derived_steering": t.derived, "start_t": t.start_t, "end_t": t.end_t});
     }
     if let Some(f) = v.first_alarm {
         o["first_alarm"] = json!({"epoch": f.epoch, "t": f.t});

@@ -180,6 +180,9 @@ pub struct Report {
     pub attacks: BTreeMap<&'static str, KindStats>,
     pub scenarios: Vec<Scenario>,
     pub config: serde_json::Value,
+    /// Strategy 2's classifier on held-out turns (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub turns: Option<crate::turns::TurnReport>,
 }
 
 fn pct(sorted: &[f64], q: f64) -> Option<f64> {
@@ -358,5 +361,6 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
             "sync_max_gap_s": o.sync.max_gap_s,
             "profiles": profiles,
         }),
+        turns: None,
     }
 }

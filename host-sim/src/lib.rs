@@ -14,6 +14,7 @@ pub mod output;
 pub mod replay;
 pub mod report;
 pub mod sim;
+pub mod turns;
 
 /// The real-data folder for a test, or `None` (with the reason printed) when it is absent.
 /// In CI (`CI=true`) an absent folder is a failure, not a skip.

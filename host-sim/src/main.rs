@@ -122,6 +122,25 @@ enum Cmd {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Train a model: `turns` (DTW k-NN templates for strategy 2).
+    Train {
+        #[arg(value_parser = ["turns"])]
+        what: String,
+        #[arg(long)]
+        data: Option<PathBuf>,
+        #[arg(long)]
+        out: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+    /// Time the turn classifier on the held-out turns and export them for tests/bench/dtw_vs_fastdtw.sh.
+    DtwBench {
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// JSON with the templates and queries, for the Python comparison.
+        #[arg(long)]
+        export: PathBuf,
+    },
     /// Measure the kinematic predictor's error and GNSS speeds at standstill on clean drives.
     Calibrate {
         #[arg(required = true)]
@@ -242,6 +261,43 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 run_eval(drives, "simulated", scenarios, seed, &out)
             }
         }
+        Cmd::Train { what: _, data, out, seed } => {
+            let dir = data.unwrap_or_else(input::data_dir);
+            let mut drives = load_drives(&dir.join("drives"))?;
+            drives.extend(host_sim::turns::sim_drives());
+            let (blob, rep, _) = host_sim::turns::train_and_evaluate(&drives, seed);
+            host_sim::output::write_atomic(&out, |w| w.write_all(&blob))?;
+            println!("{}", serde_json::to_string_pretty(&rep)?);
+            eprintln!("wrote {} ({} templates, {} bytes)", out.display(), rep.templates, blob.len());
+            Ok(())
+        }
+        Cmd::DtwBench { data, export } => {
+            let dir = data.unwrap_or_else(input::data_dir);
+            let mut drives = load_drives(&dir.join("drives"))?;
+            drives.extend(host_sim::turns::sim_drives());
+            let queries: Vec<Vec<f32>> = drives.iter().enumerate()
+                .filter(|(i, _)| host_sim::turns::held_out(&drives, *i))
+                .flat_map(|(_, d)| host_sim::turns::collect(d)).map(|t| t.query.to_vec()).collect();
+            let set = detect::default_templates();
+            let templates: Vec<Vec<f32>> = (0..set.len()).map(|i| set.get(i).2.to_vec()).collect();
+            let q: Vec<[f32; 32]> = queries.iter().map(|v| v.as_slice().try_into().expect("32 points")).collect();
+            // Repeat to get a stable timing.
+            let reps = 200;
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0f32;
+            for _ in 0..reps {
+                for x in &q {
+                    sink += detector_core::strategy::turn::classify(&set, x, 1).map_or(0.0, |n| n.distance);
+                }
+            }
+            let us = t0.elapsed().as_secs_f64() * 1e6 / (reps * q.len().max(1)) as f64;
+            host_sim::output::write_atomic(&export, |w| serde_json::to_writer(w, &serde_json::json!({
+                "band": set.band(), "templates": templates, "queries": queries, "rust_us_per_query": us,
+            })).map_err(std::io::Error::other))?;
+            println!("queries {} templates {} (checksum {sink:.1})", q.len(), set.len());
+            println!("rust_us_per_query: {us:.2}");
+            Ok(())
+        }
         Cmd::Calibrate { paths, load } => {
             let files = expand(&paths)?;
             let st = host_sim::calibrate::run(&files, &load.options(), load.sync())?;
@@ -280,8 +336,12 @@ fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, o
     let bar = indicatif::ProgressBar::new(total as u64);
     bar.set_style(indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}").unwrap().progress_chars("=> "));
     bar.set_message("evaluating");
-    let r = eval::evaluate(&drives, &o, data, &|| bar.inc(1));
+    let mut r = eval::evaluate(&drives, &o, data, &|| bar.inc(1));
     bar.finish_and_clear();
+    // Strategy 2's classifier on the held-out turns (real drives of this run + held-out simulated).
+    let mut turn_drives = drives;
+    turn_drives.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));
+    r.turns = Some(host_sim::turns::evaluate_default(&turn_drives));
     let files = report::write_all(&r, out)?;
     println!("{}", report::headline(&r));
     println!("Table 3 (scenarios in which each strategy fired):\n{}", report::table3(&r));

@@ -86,6 +86,24 @@ fn markdown(r: &Report, figs: &[PathBuf], out: &Path) -> String {
             opt(a.ttd_median_s, " s"), opt(a.ttd_p95_s, " s"), opt(a.ttd_max_s, " s"), opt(a.ttd_median_epochs, ""), opt(a.ttd_p95_epochs, ""), opt(a.ttd_max_epochs, ""));
     }
     let _ = writeln!(s, "\n## Table 3: which strategy fired (scenarios)\n\n{}", table3(r));
+    if let Some(t) = &r.turns {
+        let _ = writeln!(s, "## Strategy 2: turn classifier on held-out drives\n");
+        let _ = writeln!(s, "{} held-out turns ({} templates, {} bytes; {} training turns). Accuracy **{:.1} %** (95 % Clopper-Pearson {:.1} to {:.1} %), macro F1 (left/right) {:.3}. Pruned k-NN identical to plain banded DTW on all {} queries: {}. {:.1} us per query pruned, {:.1} us unpruned (host, one core).\n",
+            t.held_out, t.templates, t.templates_bytes, t.train_turns, 100.0 * t.accuracy, 100.0 * t.ci95_low, 100.0 * t.ci95_high, t.f1, t.exact_checked, t.exact, t.us_per_query_pruned, t.us_per_query_reference);
+        let _ = writeln!(s, "| provenance | turns | accuracy | 95 % CI |\n|---|---|---|---|");
+        for (k, p) in &t.by_provenance {
+            let _ = writeln!(s, "| {k} | {} | {:.1} % | {:.1} to {:.1} % |", p.n, 100.0 * p.accuracy, 100.0 * p.ci95_low, 100.0 * p.ci95_high);
+        }
+        let _ = writeln!(s, "\n| class | precision | recall | F1 |\n|---|---|---|---|");
+        for (k, c) in &t.per_class {
+            let _ = writeln!(s, "| {k} | {:.3} | {:.3} | {:.3} |", c.precision, c.recall, c.f1);
+        }
+        let _ = writeln!(s, "\nConfusion (rows: GNSS-confirmed label, columns: predicted):\n\n| | none | left | right |\n|---|---|---|---|");
+        for (k, row) in &t.confusion {
+            let _ = writeln!(s, "| {k} | {} | {} | {} |", row["none"], row["left"], row["right"]);
+        }
+        s.push('\n');
+    }
     let _ = writeln!(s, "## Missed scenarios\n");
     let mut any = false;
     for (k, a) in &r.attacks {

@@ -24,7 +24,7 @@ fn real_drives_paper_attacks_detected_without_false_alarms() {
         assert!(a.scenarios >= 10, "{}: {} scenarios", kind.name(), a.scenarios);
         assert!(a.sources.len() >= 2, "{}: sources {:?}", kind.name(), a.sources);
     }
-    for kind in ["turn-by-turn", "overshoot", "stop"] {
+    for kind in ["turn-by-turn", "overshoot", "stop", "wrong-turn"] {
         assert_eq!(r.attacks[kind].detection_rate, 1.0, "{kind}: missed {:?}", r.attacks[kind].missed);
     }
     assert!(r.scenarios.iter().all(|s| s.pre_onset_alarms == 0));
@@ -32,6 +32,32 @@ fn real_drives_paper_attacks_detected_without_false_alarms() {
     assert_eq!(r.attacks["turn-by-turn"].strategies["location_shift"], 10);
     assert_eq!(r.attacks["stop"].strategies["motion"], 10);
     assert_eq!(r.attacks["overshoot"].strategies["motion"], 10);
+    assert_eq!(r.attacks["wrong-turn"].strategies["turn"], 10, "wrong turns are caught by S2");
+}
+
+#[test]
+fn turn_classifier_held_out_by_drive() {
+    let Some(d) = require_data("turn_classifier_held_out_by_drive") else { return };
+    let mut ds = drives(&d);
+    ds.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));
+    let t = host_sim::turns::evaluate_default(&ds);
+    assert!(t.held_out >= 100, "{} held-out turns", t.held_out);
+    assert!(t.exact && t.exact_checked == t.held_out, "pruned == plain DTW on every query");
+    assert!(t.accuracy >= 0.9, "accuracy {}", t.accuracy);
+    assert!(t.ci95_low < t.accuracy && t.accuracy < t.ci95_high);
+    for p in ["measured", "derived", "simulated"] {
+        assert!(t.by_provenance[p].n > 0, "{p}");
+    }
+}
+
+#[test]
+fn training_the_templates_reproduces_the_committed_blob() {
+    let Some(d) = require_data("training_the_templates_reproduces_the_committed_blob") else { return };
+    let mut ds = drives(&d);
+    ds.extend(host_sim::turns::sim_drives());
+    let (blob, rep, _) = host_sim::turns::train_and_evaluate(&ds, 1);
+    assert_eq!(blob, detector_core::strategy::turn::DEFAULT_TEMPLATES, "re-run `host-sim train turns` and commit the blob");
+    assert!(rep.templates <= 3 * host_sim::turns::MAX_PER_CLASS);
 }
 
 #[test]
@@ -42,6 +68,8 @@ fn numbers_come_from_verdicts_a_blind_detector_detects_nothing() {
         tweak: Some(|c| {
             c.shift.predictor_error_m = f32::INFINITY;
             c.motion.persist_s = f32::INFINITY;
+            c.turn.gnss_turn_deg = f32::INFINITY;
+            c.turn.straight_turn_deg = f32::INFINITY;
         }),
         ..Default::default()
     };

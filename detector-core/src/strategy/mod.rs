@@ -4,11 +4,12 @@
 //! - [`location_shift`]: strategy 1, GNSS location shift vs a predicted shift.
 //! - [`motion`]: strategy 3, standstill vs motion from the wheels and from GNSS.
 //!
-//! Strategy 2 (turns by DTW k-NN on steering) plugs in beside them with its own
-//! [`StrategyId::Turn`].
+//! - [`turn`]: strategy 2, steering turns (k-NN with exact banded DTW, [`dtw`]) vs GNSS turns.
 
+pub mod dtw;
 pub mod location_shift;
 pub mod motion;
+pub mod turn;
 
 /// Identifies a strategy in verdicts and reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -1,0 +1,120 @@
+//! Strategy 2: blob validation, exactness of the pruned classifier, and hand-made sequences.
+
+use detector_core::fusion::{Config, Detector, Reason};
+use detector_core::geo::{destination, haversine_m, LatLon, EARTH_RADIUS_PAPER_M};
+use detector_core::profile::UBLOX_10HZ;
+use detector_core::sample::{Reading, Sample, Signal};
+use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::turn::{self, BlobError, TemplateSet, TurnClass, DEFAULT_TEMPLATES, QUERY_LEN};
+use detector_core::strategy::StrategyId;
+
+#[test]
+fn default_blob_is_valid_and_bad_blobs_are_refused() {
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    assert!(set.len() >= 30 && set.len() <= 3 * 64);
+    let mut b = DEFAULT_TEMPLATES.to_vec();
+    b[20] ^= 1;
+    assert_eq!(TemplateSet::parse(&b).unwrap_err(), BlobError::BadCrc);
+    let mut b = DEFAULT_TEMPLATES.to_vec();
+    b[0] = b'X';
+    assert_eq!(TemplateSet::parse(&b).unwrap_err(), BlobError::BadMagic);
+    assert_eq!(TemplateSet::parse(&DEFAULT_TEMPLATES[..DEFAULT_TEMPLATES.len() - 1]).unwrap_err(), BlobError::BadShape);
+    assert_eq!(TemplateSet::parse(&[]).unwrap_err(), BlobError::TooShort);
+    for n in 0..64 {
+        let _ = TemplateSet::parse(&DEFAULT_TEMPLATES[..n.min(DEFAULT_TEMPLATES.len())]);
+    }
+}
+
+#[test]
+fn pruned_knn_equals_plain_dtw_for_every_k() {
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    // Queries: every template perturbed, plus synthetic shapes.
+    let mut seed = 12345u32;
+    let mut rnd = || { seed = seed.wrapping_mul(1664525).wrapping_add(1013904223); (seed >> 8) as f32 / (1 << 24) as f32 - 0.5 };
+    for i in 0..set.len() {
+        let (_, _, mut q) = set.get(i);
+        for x in q.iter_mut() { *x += 40.0 * rnd(); }
+        for k in [1, 3, 5] {
+            let a = turn::classify(&set, &q, k).unwrap();
+            let b = turn::classify_reference(&set, &q, k).unwrap();
+            assert_eq!((a.class, a.distance, a.index), (b.class, b.distance, b.index), "template {i} k {k}");
+        }
+    }
+}
+
+/// A car at 8 m/s for 60 s; from 20 s it turns left 90 deg over ~8 s with the wheel at 300 deg.
+fn drive(gnss_follows: bool, wheel_turns: bool) -> Vec<Sample> {
+    let (dt, v) = (0.1, 8.0f32);
+    let mut out = Vec::new();
+    let mut p = LatLon::new(42.3, -83.2);
+    let mut heading = 0.0f64;
+    let mut gnss_heading = 0.0f64;
+    let mut gp = p;
+    let mut prev: Option<LatLon> = None;
+    for k in 0..600 {
+        let t = k as f64 * dt;
+        let turning = (20.0..28.0).contains(&t);
+        let rate = if turning { -90.0 / 8.0 } else { 0.0 };
+        heading += rate * dt;
+        p = destination(p, heading, v as f64 * dt, EARTH_RADIUS_PAPER_M);
+        if gnss_follows { gnss_heading = heading } else if !wheel_turns && turning { gnss_heading -= 90.0 / 8.0 * dt }
+        gp = if gnss_follows { p } else { destination(gp, gnss_heading, v as f64 * dt, EARTH_RADIUS_PAPER_M) };
+        let steer = if wheel_turns && turning { 300.0 } else { 0.0 };
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v);
+        signals[Signal::Steering.index()] = Reading::Valid(steer);
+        out.push(Sample {
+            t, dt_s: if prev.is_some() { dt as f32 } else { 0.0 }, pos: gp,
+            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, gp, EARTH_RADIUS_PAPER_M) as f32)),
+            gnss_speed: Reading::Valid(v),
+            gnss_course: Reading::Valid(detector_core::geo::wrap_360(gnss_heading) as f32),
+            signals,
+        });
+        prev = Some(gp);
+    }
+    out
+}
+
+fn turn_fired(samples: &[Sample]) -> Vec<(f64, detector_core::fusion::Verdict)> {
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    samples.iter().map(|s| d.step(s)).filter(|v| v.fired.contains(StrategyId::Turn)).map(|v| (v.t, v)).collect()
+}
+
+#[test]
+fn consistent_turn_does_not_fire_and_is_classified() {
+    let s = drive(true, true);
+    assert!(turn_fired(&s).is_empty());
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    let judged: Vec<_> = s.iter().filter_map(|x| d.step(x).turn).collect();
+    assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
+}
+
+#[test]
+fn steering_turn_with_straight_gnss_fires() {
+    let f = turn_fired(&drive(false, true));
+    assert!(!f.is_empty());
+    assert!(f[0].1.reasons.contains(Reason::TurnMismatch));
+    assert!(f[0].0 < 32.0, "fires when the wheel settles: {}", f[0].0);
+}
+
+#[test]
+fn gnss_turn_with_straight_wheel_fires() {
+    let f = turn_fired(&drive(false, false));
+    assert!(!f.is_empty(), "GNSS turned 90 deg, the wheel never moved");
+    assert_eq!(f[0].1.turn.unwrap().mismatch, Some(turn::TurnMismatch::GnssTurnWheelStraight));
+}
+
+#[test]
+fn no_steering_and_no_yaw_degrades_s2() {
+    let mut s = drive(true, true);
+    for x in s.iter_mut() {
+        x.signals[Signal::Steering.index()] = Reading::Stale;
+    }
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    let v: Vec<_> = s.iter().map(|x| d.step(x)).collect();
+    assert!(v.iter().all(|x| x.degraded.contains(StrategyId::Turn) && x.reasons.contains(Reason::NoTurnInputs) && !x.alarm));
+    let _ = QUERY_LEN;
+}

@@ -1,0 +1,243 @@
+//! Turn data for strategy 2: segments real (and simulated) drives into turns with the core's own
+//! segmenter, labels them by the GNSS course change, selects templates, and evaluates the
+//! classifier on held-out drives.
+//!
+//! Provenance of the steering: `measured` (a steering wheel angle signal: openxc_ford, and the
+//! straight comma2k19 / udacity_ch2 drives), `derived` (bicycle-model proxy from yaw rate and
+//! speed: css_canedge, driveplotr_nds), `simulated` (the simulator's drives).
+//! Split by drive, never by turn: `openxc_ford` (the only real measured turns) is held out whole,
+//! so its accuracy is a transfer result; of the other drives, every second one in sorted order
+//! per source is held out; simulated drives with seeds 100..103 train, 200..203 are held out.
+
+use crate::eval::Drive;
+use detector_core::sample::Signal;
+use detector_core::strategy::turn::{self, Provenance, TemplateSet, TurnClass, TurnConfig, TurnStrategy, QUERY_LEN};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// A segment is labelled a turn when GNSS confirms more than this course change, degrees ...
+pub const LABEL_TURN_DEG: f32 = 45.0;
+/// ... and `none` when GNSS changed by less than this (the detector's alarm rules are stricter).
+pub const LABEL_STRAIGHT_DEG: f32 = 20.0;
+
+/// Templates per class at most (3 classes x 64 x 66 bytes = 12.7 KB of flash).
+pub const MAX_PER_CLASS: usize = 64;
+/// Sakoe-Chiba band of the templates, points of 32 (12.5 %).
+pub const BAND: u16 = 4;
+
+#[derive(Clone, Debug)]
+pub struct Turn {
+    pub drive: String,
+    pub provenance: Provenance,
+    pub label: TurnClass,
+    pub query: [f32; QUERY_LEN],
+    pub t: f64,
+}
+
+pub fn provenance_of(d: &Drive) -> Option<Provenance> {
+    if d.source == "simulated" {
+        return Some(Provenance::Simulated);
+    }
+    let frac = |sig| d.samples.iter().filter(|s| s.signal(sig).is_valid()).count() as f64 / d.samples.len().max(1) as f64;
+    if frac(Signal::Steering) > 0.5 {
+        Some(Provenance::Measured)
+    } else if frac(Signal::YawRate) > 0.5 {
+        Some(Provenance::Derived)
+    } else {
+        None
+    }
+}
+
+/// Labelled steering segments of a drive.
+pub fn collect(d: &Drive) -> Vec<Turn> {
+    let Some(provenance) = provenance_of(d) else { return Vec::new() };
+    let mut ts = TurnStrategy::new(TurnConfig::default(), None);
+    let mut out = Vec::new();
+    for s in &d.samples {
+        if let Some(Some(o)) = ts.step(s) {
+            if o.mismatch == Some(turn::TurnMismatch::GnssTurnWheelStraight) {
+                continue;
+            }
+            let label = if o.gnss_change_deg > LABEL_TURN_DEG {
+                TurnClass::Right
+            } else if o.gnss_change_deg < -LABEL_TURN_DEG {
+                TurnClass::Left
+            } else if o.gnss_change_deg.abs() < LABEL_STRAIGHT_DEG {
+                TurnClass::None
+            } else {
+                continue;
+            };
+            out.push(Turn { drive: d.name.clone(), provenance, label, query: o.query, t: o.start_t });
+        }
+    }
+    out
+}
+
+/// Is this drive held out? See the module documentation.
+pub fn held_out(drives: &[Drive], i: usize) -> bool {
+    let d = &drives[i];
+    if d.source == "openxc_ford" {
+        return true;
+    }
+    if d.source == "simulated" {
+        return d.name.contains("seed2");
+    }
+    let mut same: Vec<&str> = drives.iter().filter(|x| x.source == d.source).map(|x| x.name.as_str()).collect();
+    same.sort();
+    same.iter().position(|n| *n == d.name).is_some_and(|k| k % 2 == 1)
+}
+
+/// Chooses at most `MAX_PER_CLASS` templates per class (seeded) and encodes the blob.
+pub fn select(train: &[Turn], seed: u64) -> Vec<u8> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut chosen = Vec::new();
+    for class in [TurnClass::None, TurnClass::Left, TurnClass::Right] {
+        let mut c: Vec<&Turn> = train.iter().filter(|t| t.label == class).collect();
+        c.shuffle(&mut rng);
+        chosen.extend(c.into_iter().take(MAX_PER_CLASS).map(|t| (t.label, t.provenance, t.query)));
+    }
+    let mut buf = vec![0u8; 14 + chosen.len() * (2 + 2 * QUERY_LEN) + 4];
+    let n = TemplateSet::encode(BAND, &chosen, &mut buf).expect("buffer sized for the templates");
+    buf.truncate(n);
+    buf
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ClassStats {
+    pub precision: f64,
+    pub recall: f64,
+    pub f1: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ProvStats {
+    pub n: usize,
+    pub accuracy: f64,
+    pub ci95_low: f64,
+    pub ci95_high: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct TurnReport {
+    pub train_turns: usize,
+    pub templates: usize,
+    pub templates_bytes: usize,
+    pub held_out: usize,
+    pub accuracy: f64,
+    pub ci95_low: f64,
+    pub ci95_high: f64,
+    /// Macro F1 over left and right.
+    pub f1: f64,
+    pub per_class: BTreeMap<&'static str, ClassStats>,
+    /// confusion[true][predicted], classes none/left/right.
+    pub confusion: BTreeMap<&'static str, BTreeMap<&'static str, usize>>,
+    pub by_provenance: BTreeMap<&'static str, ProvStats>,
+    /// The pruned classifier gave the reference's label and distance on every held-out query.
+    pub exact: bool,
+    pub exact_checked: usize,
+    pub us_per_query_pruned: f64,
+    pub us_per_query_reference: f64,
+}
+
+/// Two-sided 95 % Clopper-Pearson interval for k successes in n.
+pub fn clopper_pearson(k: usize, n: usize) -> (f64, f64) {
+    use statrs::distribution::{Beta, ContinuousCDF};
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let (k, nf) = (k as f64, n as f64);
+    let lo = if k == 0.0 { 0.0 } else { Beta::new(k, nf - k + 1.0).map(|b| b.inverse_cdf(0.025)).unwrap_or(0.0) };
+    let hi = if k == nf { 1.0 } else { Beta::new(k + 1.0, nf - k).map(|b| b.inverse_cdf(0.975)).unwrap_or(1.0) };
+    (lo, hi)
+}
+
+pub fn evaluate(blob: &[u8], train_turns: usize, test: &[Turn], k: usize) -> TurnReport {
+    let set = TemplateSet::parse(blob).expect("our own blob");
+    let classes = [TurnClass::None, TurnClass::Left, TurnClass::Right];
+    let mut conf = [[0usize; 3]; 3];
+    let mut exact = true;
+    let mut prov: BTreeMap<&'static str, (usize, usize)> = BTreeMap::new();
+    let t0 = std::time::Instant::now();
+    let preds: Vec<_> = test.iter().map(|t| turn::classify(&set, &t.query, k)).collect();
+    let pruned_us = t0.elapsed().as_secs_f64() * 1e6 / test.len().max(1) as f64;
+    let t1 = std::time::Instant::now();
+    let refs: Vec<_> = test.iter().map(|t| turn::classify_reference(&set, &t.query, k)).collect();
+    let ref_us = t1.elapsed().as_secs_f64() * 1e6 / test.len().max(1) as f64;
+    for ((t, p), r) in test.iter().zip(&preds).zip(&refs) {
+        let pc = p.map_or(TurnClass::None, |n| n.class);
+        exact &= p.map(|n| (n.class, n.distance)) == r.map(|n| (n.class, n.distance));
+        conf[t.label as usize][pc as usize] += 1;
+        let e = prov.entry(t.provenance.name()).or_default();
+        e.0 += 1;
+        e.1 += usize::from(pc == t.label);
+    }
+    let n = test.len();
+    let correct: usize = (0..3).map(|i| conf[i][i]).sum();
+    let (lo, hi) = clopper_pearson(correct, n);
+    let mut per_class = BTreeMap::new();
+    for c in classes {
+        let i = c as usize;
+        let tp = conf[i][i] as f64;
+        let pred: f64 = (0..3).map(|r| conf[r][i] as f64).sum();
+        let actual: f64 = conf[i].iter().sum::<usize>() as f64;
+        let p = if pred > 0.0 { tp / pred } else { 0.0 };
+        let r = if actual > 0.0 { tp / actual } else { 0.0 };
+        per_class.insert(c.name(), ClassStats { precision: p, recall: r, f1: if p + r > 0.0 { 2.0 * p * r / (p + r) } else { 0.0 } });
+    }
+    let confusion = classes.iter().map(|a| (a.name(), classes.iter().map(|b| (b.name(), conf[*a as usize][*b as usize])).collect())).collect();
+    TurnReport {
+        train_turns,
+        templates: set.len(),
+        templates_bytes: blob.len(),
+        held_out: n,
+        accuracy: if n > 0 { correct as f64 / n as f64 } else { 0.0 },
+        ci95_low: lo,
+        ci95_high: hi,
+        f1: (per_class["left"].f1 + per_class["right"].f1) / 2.0,
+        per_class,
+        confusion,
+        by_provenance: prov.into_iter().map(|(k, (n, c))| {
+            let (lo, hi) = clopper_pearson(c, n);
+            (k, ProvStats { n, accuracy: c as f64 / n.max(1) as f64, ci95_low: lo, ci95_high: hi })
+        }).collect(),
+        exact,
+        exact_checked: n,
+        us_per_query_pruned: pruned_us,
+        us_per_query_reference: ref_us,
+    }
+}
+
+/// Collects turns from `drives`, trains on the training split, evaluates on the held-out split.
+pub fn train_and_evaluate(drives: &[Drive], seed: u64) -> (Vec<u8>, TurnReport, Vec<Turn>) {
+    use rayon::prelude::*;
+    let per: Vec<Vec<Turn>> = drives.par_iter().map(collect).collect();
+    let (mut train, mut test) = (Vec::new(), Vec::new());
+    for (i, t) in per.into_iter().enumerate() {
+        if held_out(drives, i) { test.extend(t) } else { train.extend(t) }
+    }
+    let blob = select(&train, seed);
+    let rep = evaluate(&blob, train.len(), &test, TurnConfig::default().k);
+    (blob, rep, test)
+}
+
+/// Held-out evaluation of the committed default templates (what `eval` reports as `turns`).
+pub fn evaluate_default(drives: &[Drive]) -> TurnReport {
+    use rayon::prelude::*;
+    let per: Vec<Vec<Turn>> = drives.par_iter().map(collect).collect();
+    let (mut n_train, mut test) = (0, Vec::new());
+    for (i, t) in per.into_iter().enumerate() {
+        if held_out(drives, i) { test.extend(t) } else { n_train += t.len() }
+    }
+    evaluate(turn::DEFAULT_TEMPLATES, n_train, &test, TurnConfig::default().k)
+}
+
+/// The simulated drives used for turn templates: seeds 100..103 train, 200..203 are held out.
+pub fn sim_drives() -> Vec<Drive> {
+    use detector_core::sync::SyncConfig;
+    [100, 101, 102, 103, 200, 201, 202, 203]
+        .iter()
+        .map(|&s| Drive::new(crate::sim::drive(s, 15.0, if s % 2 == 0 { 10.0 } else { 1.0 }), SyncConfig::default()))
+        .collect()
+}
