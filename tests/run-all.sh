@@ -7,6 +7,10 @@ cd "$(dirname "$0")/.."
 if ! rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
   rustup target add thumbv7em-none-eabihf
 fi
+if ! command -v qemu-system-arm >/dev/null; then
+  sudo_=""; [ "$(id -u)" = 0 ] || sudo_="sudo"
+  $sudo_ apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo_ apt-get install -y -qq qemu-system-arm >/dev/null
+fi
 
 echo "== clippy (host workspace, warnings are errors)"
 cargo clippy --workspace --all-targets -q -- -D warnings
@@ -17,6 +21,19 @@ if grep -rnE 'extern crate (alloc|std)|alloc::' detector-core/src; then
   echo "detector-core must not use alloc or std" >&2; exit 1
 fi
 cargo build -q -p detector-core --target thumbv7em-none-eabihf --release
-echo "== firmware image (embassy, STM32F405RG)"
+echo "== firmware images (embassy STM32F405RG, and the QEMU image)"
 (cd firmware && cargo clippy -q --release -- -D warnings && cargo build -q --release)
+bash tests/size-report.sh
+
+echo "== QEMU Cortex-M run of the real pipeline, and the same input on the host"
+qemu_out=$(cd firmware && cargo run -q --release -p qemu-run)
+echo "$qemu_out"
+host_out=$(cargo run -q --release -p host-sim -- digest)
+echo "$host_out" | tail -1
+q=$(echo "$qemu_out" | grep '^verdict digest:')
+h=$(echo "$host_out" | grep '^verdict digest:')
+if [ -z "$q" ] || [ "$q" != "$h" ]; then
+  echo "verdict streams differ between Cortex-M (QEMU) and host: '$q' vs '$h'" >&2; exit 1
+fi
+echo "Cortex-M and host verdict streams identical ($q)"
 echo "== all tests passed"

@@ -11,6 +11,7 @@ pub mod eval;
 pub mod input;
 pub mod inspect;
 pub mod output;
+pub mod qemu_input;
 pub mod replay;
 pub mod report;
 pub mod sim;

@@ -141,6 +141,14 @@ enum Cmd {
         #[arg(long)]
         export: PathBuf,
     },
+    /// Run the QEMU image's input through the same board pipeline on the host; print the digest.
+    Digest {
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Also write the input (what the QEMU image embeds) to this file.
+        #[arg(long)]
+        export: Option<PathBuf>,
+    },
     /// Measure the kinematic predictor's error and GNSS speeds at standstill on clean drives.
     Calibrate {
         #[arg(required = true)]
@@ -296,6 +304,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             })).map_err(std::io::Error::other))?;
             println!("queries {} templates {} (checksum {sink:.1})", q.len(), set.len());
             println!("rust_us_per_query: {us:.2}");
+            Ok(())
+        }
+        Cmd::Digest { data, export } => {
+            let dir = data.unwrap_or_else(input::data_dir);
+            let (bytes, desc) = host_sim::qemu_input::generate(&dir)?;
+            if let Some(p) = export {
+                host_sim::output::write_atomic(&p, |w| w.write_all(&bytes))?;
+            }
+            println!("input: {desc}");
+            let (lines, pass) = host_sim::qemu_input::run_all(&bytes);
+            for l in lines {
+                println!("{l}");
+            }
+            if !pass {
+                anyhow::bail!("a scenario failed");
+            }
             Ok(())
         }
         Cmd::Calibrate { paths, load } => {

@@ -95,3 +95,16 @@ fn attack_cli_writes_the_common_layout_with_ground_truth() {
     assert!(!out.join("x.csv").exists());
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn digest_runs_the_firmware_pipeline_on_the_host() {
+    // Same input and code as the QEMU image; tests/run-all.sh compares the two digests.
+    let out = system_tests::host_sim(&["digest"]);
+    let s = String::from_utf8(out.stdout).unwrap();
+    assert!(out.status.success(), "{s}");
+    assert!(s.lines().filter(|l| l.starts_with("scenario ") && l.ends_with("PASS")).count() == 4, "{s}");
+    assert!(s.lines().last().unwrap().starts_with("verdict digest: "));
+    let sim = std::process::Command::new(system_tests::host_sim_bin()).arg("digest").env("GNSS_DATA_DIR", "/nonexistent-gnss-data").output().unwrap();
+    let s2 = String::from_utf8(sim.stdout).unwrap();
+    assert!(sim.status.success() && s2.contains("SIMULATED"), "{s2}");
+}

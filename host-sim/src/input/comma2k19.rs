@@ -12,7 +12,7 @@ use detector_core::geo::LatLon;
 use detector_core::sample::Fix;
 use std::path::{Path, PathBuf};
 
-fn read_npy<T: npyz::Deserialize>(root: &Path, rel: &str) -> Result<(Vec<u64>, Vec<T>), InputError> {
+pub(crate) fn read_npy<T: npyz::Deserialize>(root: &Path, rel: &str) -> Result<(Vec<u64>, Vec<T>), InputError> {
     let p = root.join("processed_log").join(rel);
     let bytes = std::fs::read(&p).map_err(|e| InputError::array(root, rel, format!("cannot read {}: {e}", p.display())))?;
     let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| InputError::array(root, rel, format!("expected a NumPy .npy array: {e}")))?;

@@ -1,0 +1,161 @@
+//! CAN decoding and the alarm frame, from the profile's DBC (see `build.rs`).
+
+use detector_core::sample::Signal;
+
+/// A bit field of a CAN payload as a DBC describes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Field {
+    pub start_bit: u16,
+    pub size: u8,
+    pub big_endian: bool,
+    pub signed: bool,
+    pub factor: f64,
+    pub offset: f64,
+}
+
+/// A DBC signal mapped to a detector signal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mapped {
+    pub id: u32,
+    pub field: Field,
+    /// A second field added to the first (e.g. a steering fraction).
+    pub plus: Option<Field>,
+    pub signal: Signal,
+    /// Our unit = DBC physical value * factor.
+    pub factor: f64,
+}
+
+include!(concat!(env!("OUT_DIR"), "/profile.rs"));
+
+impl Field {
+    /// The raw integer, or `None` when the field does not fit in `data` or is malformed.
+    pub fn raw(&self, data: &[u8]) -> Option<i64> {
+        let n = self.size as u32;
+        if n == 0 || n > 64 {
+            return None;
+        }
+        let mut v: u64 = 0;
+        let mut bit = self.start_bit as usize;
+        for i in 0..n {
+            let byte = *data.get(bit / 8)?;
+            let b = (byte >> (bit % 8)) & 1;
+            if self.big_endian {
+                // Motorola: the start bit is the MSB; walk down a byte, then to the next byte's MSB.
+                v = (v << 1) | b as u64;
+                bit = if bit.is_multiple_of(8) { bit + 15 } else { bit - 1 };
+            } else {
+                v |= (b as u64) << i;
+                bit += 1;
+            }
+        }
+        if self.signed && n < 64 && (v >> (n - 1)) & 1 == 1 {
+            Some((v | (!0u64 << n)) as i64)
+        } else {
+            Some(v as i64)
+        }
+    }
+
+    pub fn physical(&self, data: &[u8]) -> Option<f64> {
+        self.raw(data).map(|r| r as f64 * self.factor + self.offset)
+    }
+
+    /// Writes `raw` into `data` (the inverse of [`Field::raw`]); `false` when it does not fit.
+    pub fn put_raw(&self, data: &mut [u8], raw: i64) -> bool {
+        let n = self.size as u32;
+        if n == 0 || n > 64 {
+            return false;
+        }
+        let v = raw as u64;
+        let mut bit = self.start_bit as usize;
+        for i in 0..n {
+            let Some(byte) = data.get_mut(bit / 8) else { return false };
+            let b = if self.big_endian { (v >> (n - 1 - i)) & 1 } else { (v >> i) & 1 } as u8;
+            *byte = (*byte & !(1 << (bit % 8))) | (b << (bit % 8));
+            bit = if self.big_endian {
+                if bit.is_multiple_of(8) { bit + 15 } else { bit - 1 }
+            } else {
+                bit + 1
+            };
+        }
+        true
+    }
+
+    /// Writes a physical value (rounded to the field's resolution).
+    pub fn put(&self, data: &mut [u8], value: f64) -> bool {
+        if !value.is_finite() || self.factor == 0.0 {
+            return false;
+        }
+        self.put_raw(data, libm::round((value - self.offset) / self.factor) as i64)
+    }
+}
+
+/// Every detector signal carried by one frame, in our units (at most one per mapping).
+pub fn decode(id: u32, data: &[u8]) -> impl Iterator<Item = (Signal, f32)> + '_ {
+    SIGNALS.iter().filter(move |m| m.id == id).filter_map(move |m| {
+        let mut v = m.field.physical(data)?;
+        if let Some(p) = m.plus {
+            v += p.physical(data)?;
+        }
+        let v = (v * m.factor) as f32;
+        v.is_finite().then_some((m.signal, v))
+    })
+}
+
+/// Is this standard id one the profile needs (what the hardware filters accept)?
+pub fn wanted(id: u32) -> bool {
+    FILTER_IDS.iter().any(|&f| f as u32 == id)
+}
+
+/// Encodes a detector value into the profile's frame for `signal` (used to synthesise frames
+/// for the simulated drive). Returns the id, or `None` when the profile has no such signal.
+pub fn encode(signal: Signal, value: f32, data: &mut [u8; 8]) -> Option<u32> {
+    let m = SIGNALS.iter().find(|m| m.signal == signal)?;
+    m.field.put(data, value as f64 / m.factor).then_some(m.id)
+}
+
+/// Our alarm frame for a verdict.
+pub fn alarm_frame(v: &detector_core::fusion::Verdict) -> (u16, [u8; 8]) {
+    let mut d = [0u8; 8];
+    ALARM_ALARM.put_raw(&mut d, v.alarm as i64);
+    ALARM_FIRED.put_raw(&mut d, v.fired.0 as i64);
+    ALARM_DEGRADED.put_raw(&mut d, v.degraded.0 as i64);
+    ALARM_REASONS.put_raw(&mut d, v.reasons.0 as i64);
+    ALARM_EPOCH.put_raw(&mut d, (v.epoch & 0xFF_FFFF) as i64);
+    (ALARM_ID, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_profile_decodes_known_frames() {
+        // SPEED 0xB4: 0x1234 * 0.01 km/h at bytes 5..6
+        let got: heapless::Vec<_, 2> = decode(0xB4, &[0, 0, 0, 0, 0, 0x12, 0x34, 0]).collect();
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].0, Signal::WheelSpeed);
+        assert!((got[0].1 - 46.60 / 3.6).abs() < 1e-3);
+        assert!(wanted(0x25) && !wanted(0x123));
+        assert!(decode(0xB4, &[0, 0]).next().is_none(), "short frame: no value, no panic");
+    }
+
+    #[test]
+    fn encode_round_trips_every_signal() {
+        for (sig, v) in [(Signal::WheelSpeed, 13.5f32), (Signal::Steering, -121.5), (Signal::Pedal, 35.0), (Signal::YawRate, -7.32), (Signal::LongAccel, 1.25)] {
+            let mut d = [0u8; 8];
+            let id = encode(sig, v, &mut d).unwrap();
+            let back: heapless::Vec<_, 2> = decode(id, &d).collect();
+            assert_eq!(back[0].0, sig);
+            assert!((back[0].1 - v).abs() < 0.3, "{sig:?}: {v} -> {}", back[0].1);
+        }
+    }
+
+    #[test]
+    fn alarm_frame_layout() {
+        let f = ALARM_FIRED;
+        let mut d = [0u8; 8];
+        assert!(f.put_raw(&mut d, 5));
+        assert_eq!(d[1], 5);
+        assert_eq!(f.raw(&d), Some(5));
+    }
+}

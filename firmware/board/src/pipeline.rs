@@ -1,0 +1,104 @@
+//! The detector pipeline of the firmware: CAN frames and NMEA sentences in, verdicts out.
+//! The same code runs on the STM32, in QEMU and in `host-sim digest`.
+
+use crate::can;
+use crate::gnss::NmeaFixer;
+use detector_core::fusion::{Config, Detector, Verdict};
+use detector_core::sample::Sample;
+use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::turn::TemplateSet;
+use detector_core::sync::{SyncConfig, Synchronizer};
+
+/// FNV-1a 64 over a canonical encoding of every verdict: equal digests mean equal verdict
+/// streams, down to the bits of every residual and threshold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Digest(pub u64);
+
+impl Default for Digest {
+    fn default() -> Self {
+        Digest(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Digest {
+    fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 ^= x as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    fn f32(&mut self, v: Option<f32>) {
+        self.bytes(&v.map_or(u32::MAX, f32::to_bits).to_le_bytes());
+    }
+    pub fn add(&mut self, v: &Verdict) {
+        self.bytes(&v.epoch.to_le_bytes());
+        self.bytes(&v.t.to_bits().to_le_bytes());
+        self.bytes(&[v.ran.0, v.fired.0, v.degraded.0, v.alarm as u8]);
+        self.bytes(&v.reasons.0.to_le_bytes());
+        self.f32(v.shift.map(|s| s.residual_m));
+        self.f32(v.shift.map(|s| s.threshold_m));
+        self.f32(v.motion.map(|m| m.disagree_s));
+        self.bytes(&[v.motion.map_or(9, |m| m.wheel as u8), v.motion.map_or(9, |m| m.gnss as u8)]);
+        self.f32(v.turn.map(|t| t.gnss_change_deg));
+        self.f32(v.turn.map(|t| t.distance));
+        self.bytes(&[v.turn.and_then(|t| t.mismatch).map_or(9, |m| m as u8)]);
+    }
+}
+
+/// Everything between the receive tasks and the alarm output.
+pub struct Pipeline<'t> {
+    sync: Synchronizer,
+    det: Detector<'t, KinematicPredictor>,
+    pub nmea: NmeaFixer,
+    pub digest: Digest,
+    pub epochs: u32,
+    pub frames: u32,
+}
+
+impl<'t> Pipeline<'t> {
+    /// The full pipeline; without templates strategy 2 is left out.
+    pub fn new(cfg: Config, templates: Option<TemplateSet<'t>>) -> Self {
+        let det = Detector::new(cfg, KinematicPredictor::default());
+        Self {
+            sync: Synchronizer::new(SyncConfig::default()),
+            det: match templates {
+                Some(t) => det.with_turns(t),
+                None => det,
+            },
+            nmea: NmeaFixer::default(),
+            digest: Digest::default(),
+            epochs: 0,
+            frames: 0,
+        }
+    }
+
+    /// One received CAN frame (standard id) at time `t`, seconds.
+    pub fn on_can(&mut self, t: f64, id: u32, data: &[u8], out: &mut impl FnMut(&Verdict)) {
+        self.frames += 1;
+        let Self { sync, det, digest, epochs, .. } = self;
+        for (sig, v) in can::decode(id, data) {
+            sync.push_obs(sig, t, v, &mut |s: &Sample| judge(det, digest, epochs, out, s));
+        }
+    }
+
+    /// One NMEA sentence received at time `t`, seconds.
+    pub fn on_nmea(&mut self, t: f64, line: &[u8], out: &mut impl FnMut(&Verdict)) {
+        let Some(fix) = self.nmea.line(t, line) else { return };
+        let Self { sync, det, digest, epochs, .. } = self;
+        sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, out, s));
+    }
+
+    /// Emits what is pending (end of a replay).
+    pub fn finish(&mut self, out: &mut impl FnMut(&Verdict)) {
+        let Self { sync, det, digest, epochs, .. } = self;
+        sync.flush(&mut |s: &Sample| judge(det, digest, epochs, out, s));
+    }
+}
+
+/// One synchronised sample through the detector into the digest and out.
+fn judge(det: &mut Detector<'_, KinematicPredictor>, digest: &mut Digest, epochs: &mut u32, out: &mut impl FnMut(&Verdict), s: &Sample) {
+    let v = det.step(s);
+    digest.add(&v);
+    *epochs += 1;
+    out(&v);
+}

@@ -1,0 +1,85 @@
+//! The QEMU Cortex-M run (`cd firmware && cargo run --release -p qemu-run`).
+//!
+//! A plain cortex-m-rt image for the STM32F405 memory map (QEMU `netduinoplus2`; the embassy
+//! image cannot run there because RCC is not emulated). It links the firmware's
+//! board-independent logic (CAN decoding generated from the DBC, NMEA parsing, sample assembly)
+//! and `detector-core`, replays a real drive's CAN frames and NMEA sentences embedded at build
+//! time, clean and attacked, and checks: no alarm on the clean run, an alarm within
+//! `MAX_ALARM_DELAY_S` of each onset. It prints the cost per epoch in instructions (SysTick
+//! under `-icount shift=0`: 0.168 ticks per instruction) and the verdict digest that
+//! `host-sim digest` must reproduce, then exits 0 (pass) or 1 through semihosting.
+#![no_std]
+#![no_main]
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::entry;
+use cortex_m_semihosting::{debug, hprintln};
+use detector_core::fusion::Config;
+use detector_core::profile::UBLOX_10HZ;
+use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
+use gnss_guard_board::replay::{self, Input};
+use panic_semihosting as _;
+use stm32_metapac as _;
+
+static INPUT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/input.bin"));
+const DESC: &str = include_str!(concat!(env!("OUT_DIR"), "/input.txt"));
+/// SysTick ticks per instruction with `-icount shift=0` on netduinoplus2 (168 MHz / 1 GHz).
+const TICKS_PER_1000_INSTR: u64 = 168;
+const MAX_EPOCHS: usize = 4096;
+
+fn fail(msg: &str) -> ! {
+    hprintln!("qemu-run: {}", msg);
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(mut cp) = cortex_m::Peripherals::take() else { fail("peripherals taken twice") };
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(0x00FF_FFFF);
+    cp.SYST.clear_current();
+    cp.SYST.enable_counter();
+
+    hprintln!("input: {}", DESC);
+    let Ok(input) = Input::parse(INPUT) else { fail("the embedded input is malformed") };
+    let Ok(templates) = TemplateSet::parse(DEFAULT_TEMPLATES) else { fail("the turn templates are malformed") };
+    let cfg = Config::for_profile(&UBLOX_10HZ);
+
+    let mut last = SYST::get_current();
+    let mut total: u32 = 0;
+    let mut clock = move || {
+        let now = SYST::get_current();
+        total = total.wrapping_add(last.wrapping_sub(now) & 0x00FF_FFFF);
+        last = now;
+        total
+    };
+    let mut costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
+    let mut digests: heapless::Vec<gnss_guard_board::pipeline::Digest, 8> = heapless::Vec::new();
+    let mut all = true;
+    for i in 0..input.scenarios() {
+        let Ok(sc) = input.scenario(i) else { fail("bad scenario") };
+        let mut cost = |c: u32| {
+            let _ = costs.push(c);
+        };
+        let Ok(o) = replay::run(&input, i, cfg, templates, &mut clock, &mut cost) else { fail("replay failed") };
+        let pass = o.pass(sc.onset_s.is_nan(), replay::MAX_ALARM_DELAY_S);
+        all &= pass;
+        let _ = digests.push(o.digest);
+        hprintln!("{}", replay::describe(sc.name, &o, pass).as_str());
+    }
+    costs.sort_unstable();
+    let instr = |ticks: u32| ticks as u64 * 1000 / TICKS_PER_1000_INSTR;
+    if let (Some(&min), Some(&max)) = (costs.first(), costs.last()) {
+        hprintln!("instructions per epoch: min {} median {} max {}", instr(min), instr(costs[costs.len() / 2]), instr(max));
+    }
+    hprintln!("verdict digest: {:016x}", replay::combine(&digests));
+    hprintln!("qemu-run: {}", if all { "PASS" } else { "FAIL" });
+    debug::exit(if all { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

@@ -1,0 +1,152 @@
+//! The input of the QEMU Cortex-M run and of `host-sim digest` (format in
+//! `gnss_guard_board::replay`): the comma2k19 segment's real CAN frames (bus 0, the profile's
+//! ids) and its u-blox fixes rendered as NMEA GGA + RMC sentences, once clean and once per
+//! attack. Without the real data, the simulated drive, its signals encoded into CAN frames
+//! through the profile's DBC.
+
+use crate::attack::{self, AttackKind};
+use crate::input::{self, Event, Replay};
+use detector_core::sample::Fix;
+use gnss_guard_board::{can, replay as fmt};
+use std::path::Path;
+
+/// The scenarios: name, attack and onset (seconds after the start).
+pub const SCENARIOS: [(&str, Option<AttackKind>, f64); 4] = [
+    ("clean", None, f64::NAN),
+    ("turn-by-turn", Some(AttackKind::TurnByTurn), 30.0),
+    ("overshoot", Some(AttackKind::Overshoot), 25.0),
+    ("wrong-turn", Some(AttackKind::WrongTurn), 20.0),
+];
+
+fn checksum(body: &str) -> u8 {
+    body.bytes().fold(0, |c, b| c ^ b)
+}
+
+fn dm(deg: f64, pos: char, neg: char, width: usize) -> (String, char) {
+    let a = deg.abs();
+    let d = a.floor();
+    let m = (a - d) * 60.0;
+    (format!("{:0width$}{:09.6}", d as u32, m, width = width), if deg >= 0.0 { pos } else { neg })
+}
+
+/// GGA and RMC sentences for a fix (time of day from seconds since start).
+pub fn nmea(f: &Fix, secs: f64) -> [String; 2] {
+    let tod = secs.rem_euclid(86_400.0);
+    let hms = format!("{:02}{:02}{:05.2}", (tod / 3600.0) as u32, ((tod % 3600.0) / 60.0) as u32, tod % 60.0);
+    let (la, ns) = dm(f.pos.lat_deg, 'N', 'S', 2);
+    let (lo, ew) = dm(f.pos.lon_deg, 'E', 'W', 3);
+    let gga = format!("GPGGA,{hms},{la},{ns},{lo},{ew},1,12,0.8,10.0,M,0.0,M,,");
+    let spd = f.speed_mps.map_or(String::new(), |v| format!("{:.3}", v / 0.514_444));
+    let crs = f.course_deg.map_or(String::new(), |c| format!("{:.2}", c));
+    let rmc = format!("GPRMC,{hms},A,{la},{ns},{lo},{ew},{spd},{crs},020818,,,A");
+    [gga, rmc].map(|b| format!("${b}*{:02X}", checksum(&b)))
+}
+
+fn frames_real(seg: &Path) -> Result<Vec<(f64, u32, Vec<u8>)>, input::InputError> {
+    use input::comma2k19::read_npy;
+    let (_, t) = read_npy::<f64>(seg, "CAN/raw_can/t")?;
+    let (_, a) = read_npy::<i64>(seg, "CAN/raw_can/address")?;
+    let (_, s) = read_npy::<i64>(seg, "CAN/raw_can/src")?;
+    let (_, d) = read_npy::<Vec<u8>>(seg, "CAN/raw_can/data")?;
+    Ok((0..t.len().min(a.len()).min(s.len()).min(d.len()))
+        .filter(|&i| s[i] == 0 && can::wanted(a[i] as u32) && t[i].is_finite())
+        .map(|i| (t[i], a[i] as u32, d[i].clone()))
+        .collect())
+}
+
+fn frames_sim(r: &Replay) -> Vec<(f64, u32, Vec<u8>)> {
+    r.events.iter().filter_map(|e| match *e {
+        Event::Obs { sig, t, v } => {
+            let mut d = [0u8; 8];
+            can::encode(sig, v, &mut d).map(|id| (t, id, d.to_vec()))
+        }
+        Event::Fix(_) => None,
+    }).collect()
+}
+
+/// Builds the input. Returns the bytes and a one-line description of what they hold.
+pub fn generate(data: &Path) -> Result<(Vec<u8>, String), input::InputError> {
+    let seg = data.join("raw/comma2k19_rav4_seg40");
+    let (replay, mut frames, desc) = if seg.join("processed_log").is_dir() {
+        let r = input::comma2k19::load(&seg)?;
+        let f = frames_real(&seg)?;
+        let d = format!("REAL drive: comma2k19 segment {} ({} CAN frames, {} u-blox fixes)", seg.display(), f.len(), r.fixes().count());
+        (r, f, d)
+    } else {
+        let r = crate::sim::drive(7, 1.0, 10.0);
+        let f = frames_sim(&r);
+        let d = format!("SIMULATED drive (no {}): {} CAN frames, {} fixes", seg.display(), f.len(), r.fixes().count());
+        (r, f, d)
+    };
+    frames.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let t0 = replay.events.first().map_or(0.0, |e| e.t()).min(frames.first().map_or(f64::INFINITY, |f| f.0));
+    let us = |t: f64| ((t - t0) * 1e6).round().clamp(0.0, u32::MAX as f64) as u32;
+
+    let mut nmea_blocks = Vec::new();
+    for (_, kind, onset) in SCENARIOS {
+        let fixes: Vec<Fix> = match kind {
+            None => replay.fixes().copied().collect(),
+            Some(k) => attack::apply(&replay, k, 1, t0 + onset).replay.fixes().copied().collect(),
+        };
+        let mut block = Vec::new();
+        let mut count = 0u32;
+        for f in &fixes {
+            for s in nmea(f, f.t - t0) {
+                block.extend_from_slice(&us(f.t).to_le_bytes());
+                block.push(s.len() as u8);
+                block.extend_from_slice(s.as_bytes());
+                count += 1;
+            }
+        }
+        nmea_blocks.push((block, count));
+    }
+    let mut out = Vec::new();
+    out.extend_from_slice(fmt::MAGIC);
+    out.extend_from_slice(&fmt::VERSION.to_le_bytes());
+    out.extend_from_slice(&(SCENARIOS.len() as u16).to_le_bytes());
+    out.extend_from_slice(&(frames.len() as u32).to_le_bytes());
+    out.extend_from_slice(&t0.to_le_bytes());
+    let mut off = fmt::HEADER + SCENARIOS.len() * fmt::SCENARIO + frames.len() * fmt::CAN_RECORD;
+    for ((name, _, onset), (block, count)) in SCENARIOS.iter().zip(&nmea_blocks) {
+        let mut n = [0u8; 16];
+        n[..name.len()].copy_from_slice(name.as_bytes());
+        out.extend_from_slice(&n);
+        out.extend_from_slice(&onset.to_le_bytes());
+        out.extend_from_slice(&(off as u32).to_le_bytes());
+        out.extend_from_slice(&count.to_le_bytes());
+        off += block.len();
+    }
+    for (t, id, d) in &frames {
+        out.extend_from_slice(&us(*t).to_le_bytes());
+        out.extend_from_slice(&(*id as u16).to_le_bytes());
+        out.push(d.len().min(8) as u8);
+        let mut p = [0u8; 8];
+        p[..d.len().min(8)].copy_from_slice(&d[..d.len().min(8)]);
+        out.extend_from_slice(&p);
+    }
+    for (block, _) in &nmea_blocks {
+        out.extend_from_slice(block);
+    }
+    Ok((out, desc))
+}
+
+/// Runs every scenario through the board pipeline (as the QEMU image does) and returns the
+/// report lines and whether every scenario passed.
+pub fn run_all(bytes: &[u8]) -> (Vec<String>, bool) {
+    let input = fmt::Input::parse(bytes).expect("our own input");
+    let cfg = detector_core::fusion::Config::for_profile(&detector_core::profile::UBLOX_10HZ);
+    let set = crate::detect::default_templates();
+    let mut lines = Vec::new();
+    let mut all = true;
+    let mut digests = Vec::new();
+    for i in 0..input.scenarios() {
+        let sc = input.scenario(i).expect("scenario");
+        let o = fmt::run(&input, i, cfg, set, &mut || 0, &mut |_| {}).expect("run");
+        let pass = o.pass(sc.onset_s.is_nan(), fmt::MAX_ALARM_DELAY_S);
+        all &= pass;
+        digests.push(o.digest);
+        lines.push(fmt::describe(sc.name, &o, pass).to_string());
+    }
+    lines.push(format!("verdict digest: {:016x}", fmt::combine(&digests)));
+    (lines, all)
+}
