@@ -59,7 +59,8 @@ fn drive(gnss_follows: bool, wheel_turns: bool) -> Vec<Sample> {
         p = destination(p, heading, v as f64 * dt, EARTH_RADIUS_PAPER_M);
         if gnss_follows { gnss_heading = heading } else if !wheel_turns && turning { gnss_heading -= 90.0 / 8.0 * dt }
         gp = if gnss_follows { p } else { destination(gp, gnss_heading, v as f64 * dt, EARTH_RADIUS_PAPER_M) };
-        let steer = if wheel_turns && turning { 300.0 } else { 0.0 };
+        // A real sensor is never bit-identical for long (that is the stuck-sensor check).
+        let steer = if wheel_turns && turning { 300.0 } else { 0.0 } + 0.3 * ((k as f32) * 0.7).sin();
         let mut signals = [Reading::Missing; Signal::COUNT];
         signals[Signal::WheelSpeed.index()] = Reading::Valid(v);
         signals[Signal::Steering.index()] = Reading::Valid(steer);

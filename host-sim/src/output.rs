@@ -42,3 +42,14 @@ pub fn render_atomic(path: &Path, render: impl FnOnce(&Path) -> Result<(), Strin
     }
     res
 }
+
+/// Removes temporary files an interrupted earlier run left in `dir` (not recursive).
+pub fn remove_stale_temporaries(dir: &Path) {
+    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    for e in rd.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') && name.contains(".tmp") {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}

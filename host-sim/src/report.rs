@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 /// Writes everything under `out`; returns the files written.
 pub fn write_all(r: &Report, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut files = Vec::new();
+    crate::output::remove_stale_temporaries(out);
+    crate::output::remove_stale_temporaries(&out.join("figures"));
     let json = out.join("report.json");
     write_atomic(&json, |w| serde_json::to_writer_pretty(&mut *w, r).map_err(std::io::Error::other))?;
     files.push(json);

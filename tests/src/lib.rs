@@ -1,6 +1,8 @@
 //! Helpers for the end-to-end system tests in `tests/tests/`: they run the real `host-sim`
 //! binary, as a user would.
 
+pub mod fuzz;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 use std::sync::OnceLock;

@@ -308,6 +308,9 @@ pub struct TurnConfig {
     /// Nothing is judged until this much history has built up after a (re)start, seconds (a
     /// receiver's first headings are unsettled).
     pub warmup_s: f32,
+    /// A measured steering angle bit-identical for this long while moving is a stuck sensor:
+    /// strategy 2 is degraded until it changes, seconds.
+    pub stuck_s: f32,
 }
 
 impl Default for TurnConfig {
@@ -327,6 +330,7 @@ impl Default for TurnConfig {
             k: 1,
             max_gap_s: 3.0,
             warmup_s: 10.0,
+            stuck_s: 10.0,
         }
     }
 }
@@ -400,6 +404,8 @@ pub struct TurnStrategy<'a> {
     ticks: u64,
     since: f64,
     last_gnss_only_alarm_t: f64,
+    /// (value, since when) of the measured steering, for the stuck-sensor check.
+    same_steer: Option<(f32, f64)>,
 }
 
 impl<'a> TurnStrategy<'a> {
@@ -418,6 +424,7 @@ impl<'a> TurnStrategy<'a> {
             ticks: 0,
             since: f64::NAN,
             last_gnss_only_alarm_t: f64::NEG_INFINITY,
+            same_steer: None,
         }
     }
 
@@ -436,6 +443,18 @@ impl<'a> TurnStrategy<'a> {
         Some((steering_proxy_deg(yaw, speed, &self.cfg).unwrap_or(f32::NAN), true))
     }
 
+    /// Tracks how long the measured steering has stayed bit-identical while moving.
+    fn steering_stuck(&mut self, steer: f32, s: &Sample) -> bool {
+        let moving = s.wheel_speed().get().or(s.gnss_speed.get()).is_some_and(|v| v >= self.cfg.min_speed_mps);
+        match self.same_steer {
+            Some((v, t0)) if v.to_bits() == steer.to_bits() && s.t >= t0 => moving && (s.t - t0) as f32 >= self.cfg.stuck_s,
+            _ => {
+                self.same_steer = Some((steer, s.t));
+                false
+            }
+        }
+    }
+
     /// One epoch. `None`: inputs missing (degraded). `Some(None)`: ran, nothing to judge.
     pub fn step(&mut self, s: &Sample) -> Option<Option<TurnOutcome>> {
         let Some((steer, derived)) = self.steer_of(s) else {
@@ -444,6 +463,13 @@ impl<'a> TurnStrategy<'a> {
         };
         if !s.t.is_finite() || !s.pos.is_valid() {
             self.reset();
+            return None;
+        }
+        if !derived && self.steering_stuck(steer, s) {
+            // Degraded, not reset: no segment or straight-wheel window may span a stuck sensor.
+            self.seg_start = None;
+            self.quiet = None;
+            self.last = None;
             return None;
         }
         // Heading: reported course when moving, else the bearing over >= 3 m of track.

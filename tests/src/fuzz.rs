@@ -1,0 +1,210 @@
+//! Fuzz harnesses. The `cargo fuzz` targets in `tests/fuzz/` call these, and the normal test
+//! command replays the committed corpora and regressions through them (`tests/tests/fuzz_corpora.rs`).
+//! Each harness must never panic, hang or grow without bound on any input.
+
+use detector_core::fusion::{Config, Detector};
+use detector_core::geo::LatLon;
+use detector_core::profile::{LOGGER_1HZ, UBLOX_10HZ};
+use detector_core::sample::{Fix, Reading, Sample, Signal};
+use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::turn::{self, TemplateSet, DEFAULT_TEMPLATES};
+use detector_core::sync::{SyncConfig, Synchronizer};
+use std::path::{Path, PathBuf};
+
+/// NMEA bytes as a UART would deliver them, in arbitrary chunks, into the firmware's GNSS path.
+pub fn nmea(data: &[u8]) {
+    let mut split = gnss_guard_board::gnss::LineSplitter::default();
+    let mut fixer = gnss_guard_board::gnss::NmeaFixer::default();
+    let cut = data.first().map_or(1, |&b| b as usize % 17 + 1);
+    for (k, chunk) in data.chunks(cut).enumerate() {
+        if k % 7 == 6 {
+            split.discard_partial(); // as after a UART overrun
+        }
+        split.push(chunk, |line| {
+            if let Some(f) = fixer.line(k as f64, line) {
+                assert!(f.pos.is_valid());
+            }
+        });
+    }
+}
+
+/// CAN frames (id, length, payload) into the generated DBC decoder and through the pipeline.
+pub fn can(data: &[u8]) {
+    let cfg = Config::for_profile(&UBLOX_10HZ);
+    let mut p = gnss_guard_board::pipeline::Pipeline::new(cfg, TemplateSet::parse(DEFAULT_TEMPLATES).ok());
+    let mut t = 0.0;
+    for rec in data.chunks(11) {
+        if rec.len() < 3 {
+            break;
+        }
+        let id = u16::from_le_bytes([rec[0], rec[1]]) as u32 & 0x7FF;
+        let len = (rec[2] as usize % 9).min(rec.len() - 3);
+        let payload = &rec[3..3 + len];
+        for (_, v) in gnss_guard_board::can::decode(id, payload) {
+            assert!(v.is_finite());
+        }
+        // Map the id onto the profile's so most frames are real work for the pipeline.
+        let ids = gnss_guard_board::can::FILTER_IDS;
+        let pid = ids[id as usize % ids.len()] as u32;
+        t += (rec[0] % 16) as f64 * 0.003;
+        p.on_can(t, pid, payload, &mut |_| {});
+    }
+    p.finish(&mut |_| {});
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let base = if Path::new("/dev/shm").is_dir() { PathBuf::from("/dev/shm") } else { std::env::temp_dir() };
+    let d = base.join(format!("gnss-guard-fuzz-{}-{name}", std::process::id()));
+    let _ = std::fs::create_dir_all(&d);
+    d
+}
+
+fn load_and_replay(p: &Path) {
+    if let Ok(r) = host_sim::input::load(p, &host_sim::input::LoadOptions::default()) {
+        let (s, _) = host_sim::replay::synchronize(&r, SyncConfig::default());
+        let _ = host_sim::detect::run(&s, Config::for_profile(&LOGGER_1HZ));
+    }
+    let _ = host_sim::input::load(p, &host_sim::input::LoadOptions { skip_bad_rows: true, ..Default::default() });
+}
+
+/// A drive CSV file.
+pub fn drive_csv(data: &[u8]) {
+    let p = scratch("csv").join("drive.csv");
+    let _ = std::fs::write(&p, data);
+    load_and_replay(&p);
+}
+
+/// An OpenXC trace.
+pub fn openxc(data: &[u8]) {
+    let p = scratch("openxc").join("trace.jsonl");
+    let _ = std::fs::write(&p, data);
+    load_and_replay(&p);
+}
+
+/// An HDD session: the input split at the first 0xFF into rtk_pos.csv and vel.csv.
+pub fn hdd(data: &[u8]) {
+    let s = scratch("hdd").join("session");
+    let csv = s.join("general/csv");
+    let _ = std::fs::create_dir_all(&csv);
+    let (a, b) = match data.iter().position(|&x| x == 0xFF) {
+        Some(i) => (&data[..i], &data[i + 1..]),
+        None => (data, &[][..]),
+    };
+    let _ = std::fs::write(csv.join("rtk_pos.csv"), a);
+    let _ = std::fs::write(csv.join("vel.csv"), b);
+    load_and_replay(&s);
+}
+
+/// A comma2k19 segment: the input split at the first 0xFF into the GNSS `t` and `value` arrays
+/// (prefixed with valid .npy headers half of the time, so the parser is exercised past them).
+pub fn comma2k19(data: &[u8]) {
+    let s = scratch("comma").join("seg");
+    let g = s.join("processed_log/GNSS/live_gnss_ublox");
+    let _ = std::fs::create_dir_all(&g);
+    let (a, b) = match data.iter().position(|&x| x == 0xFF) {
+        Some(i) => (&data[..i], &data[i + 1..]),
+        None => (data, &[][..]),
+    };
+    let hdr = |shape: &str| {
+        let h = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape}, }}");
+        let mut v = b"\x93NUMPY\x01\x00".to_vec();
+        let pad = 64 - (10 + h.len() + 1) % 64;
+        v.extend_from_slice(&((h.len() + pad + 1) as u16).to_le_bytes());
+        v.extend_from_slice(h.as_bytes());
+        v.extend(std::iter::repeat_n(b' ', pad));
+        v.push(b'\n');
+        v
+    };
+    let with_hdr = data.first().is_some_and(|x| x & 1 == 1);
+    let n = a.len() / 8;
+    let mut ta = if with_hdr { hdr(&format!("({n},)")) } else { Vec::new() };
+    ta.extend_from_slice(a);
+    let rows = b.len() / 48;
+    let mut vb = if with_hdr { hdr(&format!("({rows}, 6)")) } else { Vec::new() };
+    vb.extend_from_slice(b);
+    let _ = std::fs::write(g.join("t"), ta);
+    let _ = std::fs::write(g.join("value"), vb);
+    load_and_replay(&s);
+}
+
+/// The turn template blob parser and the classifier on whatever it accepts.
+pub fn template_blob(data: &[u8]) {
+    if let Ok(set) = TemplateSet::parse(data) {
+        let q = [1.0f32; turn::QUERY_LEN];
+        let a = turn::classify(&set, &q, 3);
+        let b = turn::classify_reference(&set, &q, 3);
+        assert_eq!(a.map(|n| (n.class, n.distance)), b.map(|n| (n.class, n.distance)));
+    }
+    // Fixing up the CRC gets the fuzzer past it into the record checks.
+    if data.len() >= 18 {
+        let mut v = data.to_vec();
+        let n = v.len() - 4;
+        let crc = detector_core::crc32::crc32(&v[..n]);
+        v[n..].copy_from_slice(&crc.to_le_bytes());
+        let _ = TemplateSet::parse(&v);
+    }
+}
+
+/// The QEMU/digest replay input parser and runner.
+pub fn replay_input(data: &[u8]) {
+    use gnss_guard_board::replay;
+    if let Ok(input) = replay::Input::parse(data) {
+        let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+        for i in 0..input.scenarios().min(4) {
+            let _ = replay::run(&input, i, Config::for_profile(&UBLOX_10HZ), set, &mut || 0, &mut |_| {});
+        }
+    }
+}
+
+fn f64_at(d: &[u8], i: usize) -> f64 {
+    let mut a = [0u8; 8];
+    for (k, x) in a.iter_mut().enumerate() {
+        *x = d.get(i + k).copied().unwrap_or(0);
+    }
+    f64::from_le_bytes(a)
+}
+
+/// Arbitrary sample sequences into the detector, and arbitrary events into the synchroniser.
+pub fn detector(data: &[u8]) {
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&LOGGER_1HZ), KinematicPredictor::default()).with_turns(set);
+    let mut sync = Synchronizer::new(SyncConfig::default());
+    let reading = |b: u8, v: f64| match b % 3 {
+        0 => Reading::Valid(v as f32),
+        1 => Reading::Stale,
+        _ => Reading::Missing,
+    };
+    for rec in data.chunks(24) {
+        let (t, a, b) = (f64_at(rec, 0), f64_at(rec, 8), f64_at(rec, 16));
+        let k = rec.first().copied().unwrap_or(0);
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        for (i, s) in signals.iter_mut().enumerate() {
+            *s = reading(rec.get(i + 1).copied().unwrap_or(0), a * (i as f64 + 1.0));
+        }
+        let s = Sample { t, dt_s: b as f32, pos: LatLon::new(a, b), shift_m: reading(k, b), gnss_speed: reading(k >> 2, a), gnss_course: reading(k >> 4, b), signals };
+        let v = d.step(&s);
+        assert_eq!(v.ran.0 & v.degraded.0, 0);
+        if k % 2 == 0 {
+            sync.push_obs(Signal::ALL[k as usize % Signal::COUNT], t, a as f32, &mut |x| { d.step(x); });
+        } else {
+            sync.push_fix(Fix { t, pos: LatLon::new(a, b), speed_mps: Some(b as f32), course_deg: None }, &mut |x| { d.step(x); });
+        }
+    }
+    sync.flush(&mut |x| { d.step(x); });
+}
+
+/// A fuzz harness.
+pub type Harness = fn(&[u8]);
+
+/// All harnesses by name (the fuzz targets and the corpus replay use the same names).
+pub const TARGETS: [(&str, Harness); 9] = [
+    ("nmea", nmea),
+    ("can", can),
+    ("drive_csv", drive_csv),
+    ("openxc", openxc),
+    ("hdd", hdd),
+    ("comma2k19", comma2k19),
+    ("template_blob", template_blob),
+    ("replay_input", replay_input),
+    ("detector", detector),
+];
