@@ -10,7 +10,7 @@ fn fuzz_corpora_and_regressions_replay_cleanly() {
     let mut total = 0;
     for (name, harness) in TARGETS {
         let mut n = 0;
-        for sub in ["corpus", "regressions"] {
+        for sub in ["seeds", "corpus", "regressions"] {
             let dir = root.join(sub).join(name);
             let Ok(rd) = std::fs::read_dir(&dir) else { continue };
             let mut files: Vec<_> = rd.flatten().map(|e| e.path()).collect();

@@ -1,0 +1,65 @@
+#!/usr/bin/env python3
+"""Writes the synthetic fuzz seeds (tests/fuzz/seeds/<target>/). No real data is copied; the HDD
+seed takes the first lines of the committed HDD test fixture."""
+import struct, random, os
+random.seed(1)
+os.chdir(os.path.dirname(os.path.abspath(__file__)))
+for t in "nmea can drive_csv openxc hdd comma2k19 template_blob replay_input detector".split():
+    os.makedirs("seeds/" + t, exist_ok=True)
+def ck(b):
+    c = 0
+    for ch in b: c ^= ord(ch)
+    return "%02X" % c
+def nmea(lat, lon, spd, crs, t):
+    def dm(d, w):
+        a = abs(d); D = int(a); return "%0*d%09.6f" % (w, D, (a - D) * 60)
+    hms = "%02d%02d%05.2f" % (t // 3600 % 24, t // 60 % 60, t % 60)
+    ns, ew = ('N' if lat >= 0 else 'S'), ('E' if lon >= 0 else 'W')
+    gga = "GPGGA,%s,%s,%s,%s,%s,1,12,0.8,10.0,M,0.0,M,," % (hms, dm(lat, 2), ns, dm(lon, 3), ew)
+    rmc = "GPRMC,%s,A,%s,%s,%s,%s,%.3f,%.2f,020818,,,A" % (hms, dm(lat, 2), ns, dm(lon, 3), ew, spd / 0.514444, crs)
+    vtg = "GPVTG,%.2f,T,,M,%.3f,N,%.3f,K,A" % (crs, spd / 0.514444, spd * 3.6)
+    return "".join("$%s*%s\r\n" % (s, ck(s)) for s in (gga, vtg, rmc))
+lat, lon = 48.137, 11.575
+lines = ""
+for k in range(20):
+    lat += 0.00005; lon += 0.00003
+    lines += nmea(lat, lon, 8.0 + k * 0.1, 23.0, 3600 + k * 0.1)
+open("seeds/nmea/gga_vtg_rmc", "w").write(lines)
+open("seeds/nmea/no_fix", "w").write("$GPRMC,,V,,,,,,,,,,N*53\r\n$GPGGA,,,,,,0,,,,,,,,*66\r\n")
+ids = [0xB4, 0x25, 0x2C1, 0x24, 0x228]
+b = b""
+for k in range(60):
+    b += struct.pack("<HB", ids[k % 5], 8) + bytes(random.randrange(256) for _ in range(8))
+open("seeds/can/profile_frames", "wb").write(b)
+hdr = "t_s,unix_time_s,lat_deg,lon_deg,gnss_new_fix,gnss_fix_age_s,gnss_speed_mps,gnss_course_deg,veh_speed_mps,steer_wheel_deg,accel_pedal_pct,long_accel_mps2,yaw_rate_degps\n"
+rows = ""
+lat, lon = 48.137, 11.575
+for k in range(40):
+    t = k * 0.1; nf = 1 if k % 10 == 0 else 0
+    if nf: lat += 0.00008
+    rows += "%.1f,%d,%.7f,%.7f,%d,%.2f,%.2f,%.1f,%.2f,%.1f,%.1f,%.2f,%.2f\n" % (t, 1600000000 + int(t), lat, lon, nf, (k % 10) * 0.1, 9.0, 0.0, 9.0 + random.random() * 0.1, random.uniform(-5, 5), 20.0, 0.1, 0.0)
+open("seeds/drive_csv/synthetic", "w").write(hdr + rows)
+open("seeds/drive_csv/minimal", "w").write("t_s,lat_deg,lon_deg,gnss_new_fix,veh_speed_mps\n0,48.0,11.0,1,1.0\n1,48.0001,11.0,1,\n")
+o = ""; t = 1332794185.0
+for k in range(40):
+    t += 0.1
+    nm = ["vehicle_speed", "steering_wheel_angle", "accelerator_pedal_position", "latitude", "longitude", "engine_speed"][k % 6]
+    v = {"latitude": 42.29 + k * 1e-5, "longitude": -83.23 - k * 1e-5}.get(nm, random.uniform(0, 60))
+    o += '%.6f: {"name":"%s","value":%f}\n' % (t, nm, v)
+o += '%.6f: {"name":"door_status","value":"driver"}\n' % (t + 0.1)
+open("seeds/openxc/synthetic", "w").write(o)
+fx = "../../host-sim/tests/fixtures/hdd/201702271017/general/csv/"
+a = "".join(open(fx + "rtk_pos.csv").readlines()[:15]); v = "".join(open(fx + "vel.csv").readlines()[:15])
+open("seeds/hdd/fixture_head", "wb").write(a.encode() + b"\xff" + v.encode())
+t = b"".join(struct.pack("<d", x * 0.1) for x in range(10))
+val = b"".join(struct.pack("<6d", 48.0 + x * 1e-5, 11.0, 5.0, 0, 0, 10.0) for x in range(10))
+open("seeds/comma2k19/ten_fixes", "wb").write(b"\x01" + t[1:] + b"\xff" + val)
+open("seeds/template_blob/twenty", "wb").write(open("../../detector-core/models/turn_templates.bin", "rb").read()[:14 + 66 * 20] + b"\0\0\0\0")
+can = b"".join(struct.pack("<IHB", k * 10000, ids[k % 5], 8) + bytes(8) for k in range(3))
+nmb = b""
+for s, tu in [("$GPRMC,000000.00,A,4808.22000,N,01134.50000,E,10.0,90.0,020818,,,A", 0), ("$GPRMC,000000.10,A,4808.22010,N,01134.50100,E,10.0,90.0,020818,,,A", 100000)]:
+    s = s + "*" + ck(s[1:]); nmb += struct.pack("<IB", tu, len(s)) + s.encode()
+off = 20 + 32 + len(can)
+h = b"GGQI" + struct.pack("<HHId", 1, 1, 3, 0.0) + b"clean".ljust(16, b"\0") + struct.pack("<dII", float("nan"), off, 2)
+open("seeds/replay_input/minimal", "wb").write(h + can + nmb)
+open("seeds/detector/random", "wb").write(bytes(random.randrange(256) for _ in range(24 * 30)))
