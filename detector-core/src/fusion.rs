@@ -13,6 +13,7 @@ use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 use crate::strategy::location_shift::{ShiftConfig, ShiftOutcome, ShiftPredictor};
 use crate::strategy::motion::{Disagreement, Motion, MotionConfig, MotionOutcome};
+use crate::strategy::consistency::{ConsistencyConfig, HeadingCheck, ResidualCusum, SpeedCheck};
 use crate::strategy::turn::{TemplateSet, TurnConfig, TurnOutcome, TurnStrategy};
 use crate::strategy::{StrategyId, StrategySet};
 
@@ -22,6 +23,7 @@ pub struct Config {
     pub shift: ShiftConfig,
     pub motion: MotionConfig,
     pub turn: TurnConfig,
+    pub consistency: ConsistencyConfig,
 }
 
 impl Config {
@@ -45,6 +47,19 @@ impl Config {
                 persist_s: 3.0,
             },
             turn: TurnConfig::default(),
+            consistency: ConsistencyConfig {
+                enabled: true,
+                cusum_k_m: p.cusum_k_m,
+                cusum_h_m: p.cusum_h_m,
+                scale_tau_s: 120.0,
+                warmup_s: 30.0,
+                speed_tol_mps: p.speed_tol_mps,
+                speed_tol_rel: 0.03,
+                persist_s: 2.0,
+                heading_window_s: 10.0,
+                heading_tol_deg: p.heading_tol_deg,
+                min_speed_mps: 5.0,
+            },
         }
     }
 }
@@ -62,6 +77,12 @@ pub enum Reason {
     GnssStandingWheelsMoving = 3,
     /// S2: steering and GNSS disagree about a turn.
     TurnMismatch = 4,
+    /// Beyond the paper: the residual CUSUM crossed its threshold (a drift or biased shifts).
+    ResidualDrift = 5,
+    /// Beyond the paper: GNSS speed and wheel speed disagree.
+    SpeedMismatch = 6,
+    /// Beyond the paper: GNSS course and yaw rate disagree.
+    HeadingMismatch = 7,
     /// Degraded: the predictor lacks its inputs (e.g. wheel speed stale or missing).
     NoPrediction = 8,
     /// Degraded: no location shift (first epoch, or after a reset).
@@ -77,12 +98,15 @@ pub enum Reason {
 }
 
 impl Reason {
-    pub const ALL: [Reason; 11] = [
+    pub const ALL: [Reason; 14] = [
         Reason::ShiftExceedsPrediction,
         Reason::ShiftBelowPrediction,
         Reason::GnssMovingWheelsStanding,
         Reason::GnssStandingWheelsMoving,
         Reason::TurnMismatch,
+        Reason::ResidualDrift,
+        Reason::SpeedMismatch,
+        Reason::HeadingMismatch,
         Reason::NoPrediction,
         Reason::NoGnssShift,
         Reason::NoMotionInputs,
@@ -97,6 +121,9 @@ impl Reason {
             Reason::GnssMovingWheelsStanding => "gnss_moving_wheels_standing",
             Reason::GnssStandingWheelsMoving => "gnss_standing_wheels_moving",
             Reason::TurnMismatch => "turn_mismatch",
+            Reason::ResidualDrift => "residual_drift",
+            Reason::SpeedMismatch => "speed_mismatch",
+            Reason::HeadingMismatch => "heading_mismatch",
             Reason::NoPrediction => "no_prediction",
             Reason::NoGnssShift => "no_gnss_shift",
             Reason::NoMotionInputs => "no_motion_inputs",
@@ -149,6 +176,10 @@ pub struct Verdict {
     pub motion: Option<MotionOutcome>,
     /// Strategy 2's judgement, at the epochs where a steering segment ended or GNSS turned.
     pub turn: Option<TurnOutcome>,
+    /// Beyond the paper: residual CUSUM statistic (m), speed difference (m/s), heading difference (deg).
+    pub cusum_m: Option<f32>,
+    pub speed_diff_mps: Option<f32>,
+    pub heading_diff_deg: Option<f32>,
     /// Latched alarm.
     pub alarm: bool,
     pub first_alarm: Option<FirstAlarm>,
@@ -162,6 +193,9 @@ pub struct Detector<'t, P: ShiftPredictor> {
     predictor: P,
     motion: Motion,
     turn: Option<TurnStrategy<'t>>,
+    cusum: ResidualCusum,
+    speed: SpeedCheck,
+    heading: HeadingCheck,
     prev_t: Option<f64>,
     epoch: u32,
     first_alarm: Option<FirstAlarm>,
@@ -170,7 +204,18 @@ pub struct Detector<'t, P: ShiftPredictor> {
 impl<'t, P: ShiftPredictor> Detector<'t, P> {
     /// A detector with strategies 1 and 3 only.
     pub fn new(cfg: Config, predictor: P) -> Self {
-        Self { cfg, predictor, motion: Motion::new(cfg.motion), turn: None, prev_t: None, epoch: 0, first_alarm: None }
+        Self {
+            cfg,
+            predictor,
+            motion: Motion::new(cfg.motion),
+            turn: None,
+            cusum: ResidualCusum::default(),
+            speed: SpeedCheck::default(),
+            heading: HeadingCheck::default(),
+            prev_t: None,
+            epoch: 0,
+            first_alarm: None,
+        }
     }
 
     /// Adds strategy 2 with these turn templates.
@@ -193,6 +238,9 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         if let Some(t) = self.turn.as_mut() {
             t.reset();
         }
+        self.cusum.reset();
+        self.speed.reset();
+        self.heading.reset();
     }
 
     pub fn step(&mut self, s: &Sample) -> Verdict {
@@ -208,15 +256,24 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             shift: None,
             motion: None,
             turn: None,
+            cusum_m: None,
+            speed_diff_mps: None,
+            heading_diff_deg: None,
             alarm: false,
             first_alarm: self.first_alarm,
         };
         let has_turn = self.turn.is_some();
+        let extra = self.cfg.consistency.enabled;
         let all_degraded = |v: &mut Verdict| {
             v.degraded.insert(StrategyId::LocationShift);
             v.degraded.insert(StrategyId::Motion);
             if has_turn {
                 v.degraded.insert(StrategyId::Turn);
+            }
+            if extra {
+                v.degraded.insert(StrategyId::ResidualCusum);
+                v.degraded.insert(StrategyId::Speed);
+                v.degraded.insert(StrategyId::Heading);
             }
         };
         if !s.t.is_finite() || !s.pos.is_valid() {
@@ -250,9 +307,21 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                     v.reasons.insert(if o.residual_m > 0.0 { Reason::ShiftExceedsPrediction } else { Reason::ShiftBelowPrediction });
                 }
                 v.shift = Some(o);
+                if extra {
+                    let (stat, fired) = self.cusum.step(&self.cfg.consistency, shift, pred, s.dt_s);
+                    v.ran.insert(StrategyId::ResidualCusum);
+                    v.cusum_m = Some(stat);
+                    if fired {
+                        v.fired.insert(StrategyId::ResidualCusum);
+                        v.reasons.insert(Reason::ResidualDrift);
+                    }
+                }
             }
             (shift, pred) => {
                 v.degraded.insert(StrategyId::LocationShift);
+                if extra {
+                    v.degraded.insert(StrategyId::ResidualCusum);
+                }
                 if pred.is_none() {
                     v.reasons.insert(Reason::NoPrediction);
                 }
@@ -298,6 +367,33 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                     v.degraded.insert(StrategyId::Turn);
                     v.reasons.insert(Reason::NoTurnInputs);
                 }
+            }
+        }
+
+        // Beyond the paper: speed and heading consistency.
+        if extra {
+            let c = self.cfg.consistency;
+            match self.speed.step(&c, s) {
+                Some((d, fired)) => {
+                    v.ran.insert(StrategyId::Speed);
+                    v.speed_diff_mps = Some(d);
+                    if fired {
+                        v.fired.insert(StrategyId::Speed);
+                        v.reasons.insert(Reason::SpeedMismatch);
+                    }
+                }
+                None => v.degraded.insert(StrategyId::Speed),
+            }
+            match self.heading.step(&c, s) {
+                Some((d, fired)) => {
+                    v.ran.insert(StrategyId::Heading);
+                    v.heading_diff_deg = Some(d);
+                    if fired {
+                        v.fired.insert(StrategyId::Heading);
+                        v.reasons.insert(Reason::HeadingMismatch);
+                    }
+                }
+                None => v.degraded.insert(StrategyId::Heading),
             }
         }
 

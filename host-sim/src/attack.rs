@@ -11,6 +11,11 @@
 //! | `overshoot` | the position frozen at the onset (speed 0, course held) while the car drives on | onset while moving, 5 to 15 s before a real turn |
 //! | `stop` | the position moving on along the road ahead (the car's own later track) at a plausible speed while the car stands | onset 1 s into a real standstill of >= 6 s; speed 5 to 15 m/s |
 //! | `wrong-turn` | where the car turns: the track mirrored about the onset heading (it turns the other way); where it goes straight: a 90 deg turn over 6 s, left or right | onset while moving |
+//! | `slow-drift` | an offset growing at 0.05 to 1 m/s along or across the road; speed and course include the drift velocity | onset while moving |
+//! | `small-biased` | every epoch a further shift of 20 to 60 % of strategy 1's threshold (for the drive's receiver profile), same direction (the onset heading) | onset while moving |
+//! | `direction` | same speed, the steps rotated by an angle growing at 1 to 5 deg/s (up to 90 deg) | onset while moving |
+//! | `replay` | the true track delayed by 1 to 10 s (meaconing) | onset while moving |
+//! | `jump` | a single offset of 300 to 1000 m in a random direction | onset while moving |
 
 use crate::input::{Event, Replay};
 use crate::inspect;
@@ -32,16 +37,38 @@ pub enum AttackKind {
     Overshoot,
     Stop,
     WrongTurn,
+    SlowDrift,
+    SmallBiased,
+    Direction,
+    Replay,
+    Jump,
 }
 
 impl AttackKind {
-    pub const ALL: [AttackKind; 4] = [AttackKind::TurnByTurn, AttackKind::Overshoot, AttackKind::Stop, AttackKind::WrongTurn];
+    pub const ALL: [AttackKind; 9] = [
+        AttackKind::TurnByTurn,
+        AttackKind::Overshoot,
+        AttackKind::Stop,
+        AttackKind::WrongTurn,
+        AttackKind::SlowDrift,
+        AttackKind::SmallBiased,
+        AttackKind::Direction,
+        AttackKind::Replay,
+        AttackKind::Jump,
+    ];
+    /// The stealthy kinds (beyond the paper).
+    pub const STEALTHY: [AttackKind; 4] = [AttackKind::SlowDrift, AttackKind::SmallBiased, AttackKind::Direction, AttackKind::Replay];
     pub fn name(self) -> &'static str {
         match self {
             AttackKind::TurnByTurn => "turn-by-turn",
             AttackKind::Overshoot => "overshoot",
             AttackKind::Stop => "stop",
             AttackKind::WrongTurn => "wrong-turn",
+            AttackKind::SlowDrift => "slow-drift",
+            AttackKind::SmallBiased => "small-biased",
+            AttackKind::Direction => "direction",
+            AttackKind::Replay => "replay",
+            AttackKind::Jump => "jump",
         }
     }
 }
@@ -54,6 +81,8 @@ pub struct AttackSpec {
     pub onset_t: f64,
     /// Human-readable parameters (offset, speed, mode).
     pub params: String,
+    /// The main parameter as a number (offset m, drift m/s, rotation deg/s, delay s, ...).
+    pub value: f64,
 }
 
 /// An attacked replay with its ground truth.
@@ -86,7 +115,13 @@ pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
     }
     let t_end = samples[samples.len() - 1].t;
     match kind {
-        AttackKind::TurnByTurn | AttackKind::WrongTurn => {
+        AttackKind::TurnByTurn
+        | AttackKind::WrongTurn
+        | AttackKind::SlowDrift
+        | AttackKind::SmallBiased
+        | AttackKind::Direction
+        | AttackKind::Replay
+        | AttackKind::Jump => {
             // Every 20 s of driving with at least 15 s of drive left.
             let mut next = samples[0].t + 10.0;
             for s in samples {
@@ -173,10 +208,13 @@ pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Atta
     let has_speed = fixes.iter().any(|f| f.speed_mps.is_some());
     let has_course = fixes.iter().any(|f| f.course_deg.is_some());
     let params;
+    let mut value = f64::NAN;
     match kind {
-        AttackKind::TurnByTurn => {
-            let d: f64 = rng.random_range(30.0..300.0);
+        AttackKind::TurnByTurn | AttackKind::Jump => {
+            let (lo, hi) = if kind == AttackKind::Jump { (300.0, 1000.0) } else { (30.0, 300.0) };
+            let d: f64 = rng.random_range(lo..hi);
             let b: f64 = rng.random_range(0.0..360.0);
+            value = d;
             params = format!("offset {d:.0} m toward {b:.0} deg");
             for f in new.iter_mut().skip(k0) {
                 f.pos = destination(f.pos, b, d, R);
@@ -255,6 +293,69 @@ pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Atta
                 }
             }
         }
+        AttackKind::SlowDrift => {
+            let r: f64 = rng.random_range(0.05..1.0);
+            let across = rng.random_bool(0.5);
+            let b = heading_at(&fixes, k0) + if across { 90.0 } else { 0.0 };
+            value = r;
+            params = format!("drift {r:.2} m/s {} the road", if across { "across" } else { "along" });
+            for (k, f) in new.iter_mut().enumerate().skip(k0) {
+                f.pos = destination(fixes[k].pos, b, r * (f.t - onset_t).max(0.0), R);
+                add_velocity(f, &fixes, k, b, r);
+            }
+        }
+        AttackKind::SmallBiased => {
+            let frac: f64 = rng.random_range(0.2..0.6);
+            let dts: Vec<f64> = fixes.windows(2).map(|w| w[1].t - w[0].t).filter(|d| *d > 0.0).collect();
+            let mut sorted = dts.clone();
+            sorted.sort_by(f64::total_cmp);
+            let dt = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
+            let p = detector_core::profile::for_rate(1.0 / dt);
+            let step = frac * (p.kinematic_max_error_m + p.gnss_error_m) as f64;
+            let b = heading_at(&fixes, k0);
+            value = step;
+            params = format!("{step:.2} m per epoch ({:.0} % of the {} threshold) along {b:.0} deg", frac * 100.0, p.name);
+            for (n, (k, f)) in new.iter_mut().enumerate().skip(k0).enumerate() {
+                f.pos = destination(fixes[k].pos, b, step * (n + 1) as f64, R);
+                add_velocity(f, &fixes, k, b, step / dt);
+            }
+        }
+        AttackKind::Direction => {
+            let w: f64 = rng.random_range(1.0..5.0);
+            let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            value = w;
+            params = format!("steps rotated at {:.1} deg/s (up to 90 deg)", sign * w);
+            let origin = fixes.get(k0).map(|f| f.pos).unwrap_or_default();
+            let (mut prev_true, mut prev_new) = (origin, origin);
+            for (k, f) in new.iter_mut().enumerate().skip(k0) {
+                let phi = sign * (w * (f.t - onset_t)).clamp(0.0, 90.0);
+                let truth = fixes[k].pos;
+                let (e, n) = to_local(prev_true, truth, R);
+                let (sn, cs) = phi.to_radians().sin_cos();
+                let p = from_local(prev_new, e * cs + n * sn, -e * sn + n * cs, R);
+                prev_true = truth;
+                prev_new = p;
+                f.pos = p;
+                if let Some(cd) = f.course_deg {
+                    f.course_deg = Some(wrap_360(cd as f64 + phi) as f32);
+                }
+            }
+        }
+        AttackKind::Replay => {
+            let d: f64 = rng.random_range(1.0..10.0);
+            value = d;
+            params = format!("true track delayed by {d:.1} s");
+            for f in new.iter_mut().skip(k0) {
+                let t = f.t - d;
+                let j = fixes.partition_point(|x| x.t <= t);
+                let (a, b) = (fixes[j.saturating_sub(1)], fixes[j.min(fixes.len() - 1)]);
+                let w = if b.t > a.t { ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 0.0 };
+                let (e, n) = to_local(a.pos, b.pos, R);
+                f.pos = from_local(a.pos, e * w, n * w, R);
+                f.speed_mps = a.speed_mps;
+                f.course_deg = a.course_deg;
+            }
+        }
     }
     let mut events = Vec::with_capacity(replay.events.len());
     let mut it = new.iter();
@@ -268,9 +369,23 @@ pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Atta
     r.events = events;
     Attacked {
         replay: r,
-        spec: AttackSpec { kind, seed, onset_t, params },
+        spec: AttackSpec { kind, seed, onset_t, params, value },
         true_track: fixes.iter().map(|f| (f.t, f.pos)).collect(),
         perceived: new.iter().map(|f| (f.t, f.pos)).collect(),
+    }
+}
+
+/// Adds a drift velocity (`rate` m/s toward `bearing`) to a fix's reported speed and course.
+fn add_velocity(f: &mut Fix, truth: &[Fix], k: usize, bearing: f64, rate: f64) {
+    let course = truth[k].course_deg.map(f64::from).or_else(|| {
+        let p = truth.get(k.checked_sub(1)?)?;
+        (haversine_m(p.pos, truth[k].pos, R) > 0.5).then(|| initial_bearing_deg(p.pos, truth[k].pos))
+    });
+    let (Some(v), Some(c)) = (truth[k].speed_mps.map(f64::from), course) else { return };
+    let (ve, vn) = (v * c.to_radians().sin() + rate * bearing.to_radians().sin(), v * c.to_radians().cos() + rate * bearing.to_radians().cos());
+    f.speed_mps = Some((ve * ve + vn * vn).sqrt() as f32);
+    if f.course_deg.is_some() {
+        f.course_deg = Some(wrap_360(ve.atan2(vn).to_degrees()) as f32);
     }
 }
 

@@ -29,6 +29,13 @@ pub struct ProfileStats {
     pub min_gnss_speed_moving_mps: f64,
     /// Smallest speed from position change while the wheel speed is above 1.0 m/s.
     pub min_pos_speed_moving_mps: f64,
+    /// Beyond the paper: p90 of |scale-corrected residual| (the CUSUM k), the largest CUSUM
+    /// statistic on the clean drives with that k, the largest |GNSS - wheel speed| beyond 3 % of
+    /// the speed, the largest |GNSS course change - yaw integral| over 10 s.
+    pub cusum_k_m: f64,
+    pub cusum_max_stat_m: f64,
+    pub speed_excess_max_mps: f64,
+    pub heading_diff_max_deg: f64,
 }
 
 fn pct(sorted: &[f64], q: f64) -> f64 {
@@ -90,5 +97,81 @@ pub fn run(files: &[PathBuf], opts: &LoadOptions, sync: SyncConfig) -> Result<BT
         st.rmse_m = if e.is_empty() { 0.0 } else { (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt() };
     }
     out.retain(|_, s| s.epochs > 0);
+    consistency(files, opts, sync, &mut out)?;
     Ok(out)
+}
+
+/// The beyond-the-paper detectors' numbers on the clean drives.
+fn consistency(files: &[PathBuf], opts: &LoadOptions, sync: SyncConfig, out: &mut BTreeMap<&'static str, ProfileStats>) -> Result<(), input::InputError> {
+    use detector_core::strategy::consistency::{HeadingCheck, ResidualCusum, SpeedCheck};
+    let mut drives = Vec::new();
+    for f in files {
+        let r = input::load(f, opts)?;
+        let (samples, _) = replay::synchronize(&r, sync);
+        let p = detect::profile_of(&samples);
+        let mut cfg = Config::for_profile(p);
+        cfg.consistency.enabled = false;
+        let verdicts = detect::run(&samples, cfg);
+        drives.push((p.name, cfg, samples, verdicts));
+    }
+    // Pass 1: the corrected residuals give k.
+    let mut res: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    for (name, cfg, samples, verdicts) in &drives {
+        let mut c = cfg.consistency;
+        c.cusum_k_m = 0.0;
+        c.cusum_h_m = f32::INFINITY;
+        let mut rc = ResidualCusum::default();
+        for (s, v) in samples.iter().zip(verdicts) {
+            match v.shift {
+                Some(o) => {
+                    res.entry(name).or_default().push(rc.corrected(o.gnss_shift_m, o.predicted_m).abs() as f64);
+                    rc.step(&c, o.gnss_shift_m, o.predicted_m, s.dt_s);
+                }
+                None => rc.reset(),
+            }
+        }
+    }
+    for (name, v) in res.iter_mut() {
+        v.sort_by(f64::total_cmp);
+        if let Some(st) = out.get_mut(name) {
+            st.cusum_k_m = pct(v, 0.9);
+        }
+    }
+    // Pass 2: the largest statistic with that k; speed and heading differences. The detectors
+    // restart at every 5 s of each drive (as a replay window or a power-up would), so the
+    // maxima hold whatever the starting point.
+    for (name, cfg, samples, verdicts) in &drives {
+        let Some(st) = out.get_mut(name) else { continue };
+        let mut c = cfg.consistency;
+        c.cusum_k_m = st.cusum_k_m as f32;
+        c.cusum_h_m = f32::INFINITY;
+        c.speed_tol_mps = f32::INFINITY;
+        c.heading_tol_deg = f32::INFINITY;
+        let t_first = samples.first().map_or(0.0, |s| s.t);
+        let starts: Vec<usize> = (0..).map(|k| t_first + 5.0 * k as f64)
+            .map_while(|t| samples.iter().position(|s| s.t >= t))
+            .take(2000)
+            .collect();
+        for start in starts {
+        let (mut rc, mut sp, mut hd) = (ResidualCusum::default(), SpeedCheck::default(), HeadingCheck::default());
+        for (s, v) in samples.iter().zip(verdicts).skip(start).take(200_000) {
+            if v.reasons.contains(detector_core::fusion::Reason::TimeDiscontinuity) {
+                rc.reset();
+                sp.reset();
+                hd.reset();
+            }
+            match v.shift {
+                Some(o) => st.cusum_max_stat_m = st.cusum_max_stat_m.max(rc.step(&c, o.gnss_shift_m, o.predicted_m, s.dt_s).0 as f64),
+                None => rc.reset(),
+            }
+            if let (Some((d, _)), Some(w), Some(g)) = (sp.step(&c, s), s.wheel_speed().get(), s.gnss_speed.get()) {
+                st.speed_excess_max_mps = st.speed_excess_max_mps.max((d.abs() - c.speed_tol_rel * w.max(g)) as f64);
+            }
+            if let Some((d, _)) = hd.step(&c, s) {
+                st.heading_diff_max_deg = st.heading_diff_max_deg.max(d.abs() as f64);
+            }
+        }
+        }
+    }
+    Ok(())
 }

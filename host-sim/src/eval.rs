@@ -139,6 +139,8 @@ pub struct Scenario {
     pub seed: u64,
     pub onset_t: f64,
     pub params: String,
+    /// The attack's main parameter (offset m, drift m/s, rotation deg/s, delay s, step m).
+    pub value: f64,
     pub detected: bool,
     pub ttd_s: Option<f64>,
     pub ttd_epochs: Option<usize>,
@@ -159,6 +161,9 @@ pub struct KindStats {
     pub scenarios: usize,
     pub detected: usize,
     pub detection_rate: f64,
+    /// Detected within 10 s of the onset.
+    pub detected_within_10s: usize,
+    pub rate_within_10s: f64,
     pub ttd_median_s: Option<f64>,
     pub ttd_p95_s: Option<f64>,
     pub ttd_max_s: Option<f64>,
@@ -183,6 +188,11 @@ pub struct Report {
     /// Strategy 2's classifier on held-out turns (filled by the command line).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub turns: Option<crate::turns::TurnReport>,
+    /// The same scenarios judged by the paper's three strategies alone (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_strategies_only: Option<BTreeMap<&'static str, KindStats>>,
+    /// The smallest slow-drift rate detected within 10 s, m/s.
+    pub smallest_drift_detected_10s_mps: Option<f64>,
 }
 
 fn pct(sorted: &[f64], q: f64) -> Option<f64> {
@@ -260,6 +270,7 @@ pub fn run_scenario(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usi
         seed,
         onset_t: onset,
         params: a.spec.params.clone(),
+        value: a.spec.value,
         detected: det.is_some(),
         ttd_s: det.map(|i| v[i].t - onset),
         ttd_epochs: det.zip(first_attacked).map(|(i, f)| i - f),
@@ -294,6 +305,11 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
         r
     }).collect();
 
+    let smallest_drift = scenarios
+        .iter()
+        .filter(|s| s.kind == AttackKind::SlowDrift && s.ttd_s.is_some_and(|t| t <= 10.0))
+        .map(|s| s.value)
+        .min_by(f64::total_cmp);
     let hours: f64 = clean.iter().map(|c| c.hours).sum();
     let fa: usize = clean.iter().map(|c| c.false_alarms).sum();
     let clean_stats = CleanStats {
@@ -320,10 +336,13 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
         sources.sort();
         sources.dedup();
         let detected = sc.iter().filter(|s| s.detected).count();
+        let within = sc.iter().filter(|s| s.ttd_s.is_some_and(|t| t <= 10.0)).count();
         attacks.insert(kind.name(), KindStats {
             scenarios: sc.len(),
             detected,
             detection_rate: if sc.is_empty() { 0.0 } else { detected as f64 / sc.len() as f64 },
+            detected_within_10s: within,
+            rate_within_10s: if sc.is_empty() { 0.0 } else { within as f64 / sc.len() as f64 },
             ttd_median_s: pct(&ttd, 0.5),
             ttd_p95_s: pct(&ttd, 0.95),
             ttd_max_s: ttd.last().copied(),
@@ -362,5 +381,7 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
             "profiles": profiles,
         }),
         turns: None,
+        paper_strategies_only: None,
+        smallest_drift_detected_10s_mps: smallest_drift,
     }
 }

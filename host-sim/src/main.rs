@@ -362,6 +362,9 @@ fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, o
     bar.set_message("evaluating");
     let mut r = eval::evaluate(&drives, &o, data, &|| bar.inc(1));
     bar.finish_and_clear();
+    // The same scenarios judged by the paper's strategies alone, for the comparison table.
+    let paper = eval::EvalOptions { tweak: Some(|c| c.consistency.enabled = false), ..o };
+    r.paper_strategies_only = Some(eval::evaluate(&drives, &paper, data, &|| {}).attacks);
     // Strategy 2's classifier on the held-out turns (real drives of this run + held-out simulated).
     let mut turn_drives = drives;
     turn_drives.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));

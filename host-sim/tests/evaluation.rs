@@ -24,7 +24,7 @@ fn real_drives_paper_attacks_detected_without_false_alarms() {
         assert!(a.scenarios >= 10, "{}: {} scenarios", kind.name(), a.scenarios);
         assert!(a.sources.len() >= 2, "{}: sources {:?}", kind.name(), a.sources);
     }
-    for kind in ["turn-by-turn", "overshoot", "stop", "wrong-turn"] {
+    for kind in ["turn-by-turn", "overshoot", "stop", "wrong-turn", "jump"] {
         assert_eq!(r.attacks[kind].detection_rate, 1.0, "{kind}: missed {:?}", r.attacks[kind].missed);
     }
     assert!(r.scenarios.iter().all(|s| s.pre_onset_alarms == 0));
@@ -70,6 +70,7 @@ fn numbers_come_from_verdicts_a_blind_detector_detects_nothing() {
             c.motion.persist_s = f32::INFINITY;
             c.turn.gnss_turn_deg = f32::INFINITY;
             c.turn.straight_turn_deg = f32::INFINITY;
+            c.consistency.enabled = false;
         }),
         ..Default::default()
     };

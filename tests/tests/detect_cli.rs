@@ -29,7 +29,7 @@ fn clean_drives_raise_no_alarm_and_say_when_degraded() {
             assert_eq!(l["alarm"], false, "{}: false alarm at {l}", p.display());
         }
         assert_eq!(s["alarm"], false, "{}", p.display());
-        for strat in ["location_shift", "motion", "turn"] {
+        for strat in ["location_shift", "motion", "turn", "residual_cusum", "speed", "heading"] {
             assert_eq!(s["fired"][strat], 0, "{} {strat}", p.display());
         }
         let n = s["epochs"].as_u64().unwrap();

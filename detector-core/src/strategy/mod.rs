@@ -4,8 +4,11 @@
 //! - [`location_shift`]: strategy 1, GNSS location shift vs a predicted shift.
 //! - [`motion`]: strategy 3, standstill vs motion from the wheels and from GNSS.
 //!
+//! - [`consistency`]: beyond the paper, for stealthy spoofing: residual CUSUM, speed and
+//!   heading consistency.
 //! - [`turn`]: strategy 2, steering turns (k-NN with exact banded DTW, [`dtw`]) vs GNSS turns.
 
+pub mod consistency;
 pub mod dtw;
 pub mod location_shift;
 pub mod motion;
@@ -17,16 +20,34 @@ pub enum StrategyId {
     LocationShift = 0,
     Turn = 1,
     Motion = 2,
+    /// Beyond the paper: CUSUM on strategy 1's residual.
+    ResidualCusum = 3,
+    /// Beyond the paper: GNSS speed vs wheel speed.
+    Speed = 4,
+    /// Beyond the paper: GNSS course vs yaw rate.
+    Heading = 5,
 }
 
 impl StrategyId {
-    pub const ALL: [StrategyId; 3] = [StrategyId::LocationShift, StrategyId::Turn, StrategyId::Motion];
+    pub const ALL: [StrategyId; 6] = [
+        StrategyId::LocationShift,
+        StrategyId::Turn,
+        StrategyId::Motion,
+        StrategyId::ResidualCusum,
+        StrategyId::Speed,
+        StrategyId::Heading,
+    ];
+    /// The paper's three strategies.
+    pub const PAPER: [StrategyId; 3] = [StrategyId::LocationShift, StrategyId::Turn, StrategyId::Motion];
     /// The name used on the command line, in JSON and in reports.
     pub const fn name(self) -> &'static str {
         match self {
             StrategyId::LocationShift => "location_shift",
             StrategyId::Turn => "turn",
             StrategyId::Motion => "motion",
+            StrategyId::ResidualCusum => "residual_cusum",
+            StrategyId::Speed => "speed",
+            StrategyId::Heading => "heading",
         }
     }
 }

@@ -71,11 +71,27 @@ fn main() -> ! {
         let _ = digests.push(o.digest);
         hprintln!("{}", replay::describe(sc.name, &o, pass).as_str());
     }
-    costs.sort_unstable();
     let instr = |ticks: u32| ticks as u64 * 1000 / TICKS_PER_1000_INSTR;
-    if let (Some(&min), Some(&max)) = (costs.first(), costs.last()) {
-        hprintln!("instructions per epoch: min {} median {} max {}", instr(min), instr(costs[costs.len() / 2]), instr(max));
+    let report = |label: &str, costs: &mut heapless::Vec<u32, MAX_EPOCHS>| {
+        costs.sort_unstable();
+        if let (Some(&min), Some(&max)) = (costs.first(), costs.last()) {
+            hprintln!("{}: min {} median {} max {}", label, instr(min), instr(costs[costs.len() / 2]), instr(max));
+        }
+    };
+    report("instructions per epoch", &mut costs);
+    // The cost of the paper's strategies alone: the same scenarios without the consistency detectors.
+    let mut paper_cfg = cfg;
+    paper_cfg.consistency.enabled = false;
+    let mut paper_costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
+    for i in 0..input.scenarios() {
+        let mut cost = |c: u32| {
+            let _ = paper_costs.push(c);
+        };
+        if replay::run(&input, i, paper_cfg, templates, &mut clock, &mut cost).is_err() {
+            fail("replay failed");
+        }
     }
+    report("instructions per epoch (paper strategies only)", &mut paper_costs);
     hprintln!("verdict digest: {:016x}", replay::combine(&digests));
     hprintln!("qemu-run: {}", if all { "PASS" } else { "FAIL" });
     debug::exit(if all { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
