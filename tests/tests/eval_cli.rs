@@ -108,3 +108,22 @@ fn digest_runs_the_firmware_pipeline_on_the_host() {
     let s2 = String::from_utf8(sim.stdout).unwrap();
     assert!(sim.status.success() && s2.contains("SIMULATED"), "{s2}");
 }
+
+#[test]
+fn train_turns_and_calibrate_commands() {
+    let Some(d) = data_dir("train_turns_and_calibrate_commands") else { return };
+    let out = tmp("train");
+    std::fs::create_dir_all(&out).unwrap();
+    let blob = out.join("turns.bin");
+    let o = host_sim(&["train", "turns", "--data", d.to_str().unwrap(), "--out", blob.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let committed = std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../detector-core/models/turn_templates.bin")).unwrap();
+    assert_eq!(std::fs::read(&blob).unwrap(), committed, "the tool reproduces the committed templates");
+    let rep: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(rep["held_out"].as_u64().unwrap() >= 100);
+    let o = host_sim(&["calibrate", d.join("drives").to_str().unwrap()]);
+    assert!(o.status.success());
+    let cal: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(cal["logger-1hz"]["max_abs_error_m"].as_f64().unwrap() > 0.0);
+    let _ = std::fs::remove_dir_all(&out);
+}
