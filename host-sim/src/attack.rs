@@ -165,38 +165,7 @@ pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
 
 /// Start times of real turns (> 60 deg within 60 m of track, as `inspect` counts them).
 pub fn turn_starts(samples: &[Sample]) -> Vec<f64> {
-    let mut pts: Vec<(f64, f64, f64)> = Vec::new(); // (t, cum distance, heading)
-    let mut last: Option<LatLon> = None;
-    let mut cum = 0.0;
-    for s in samples {
-        match last {
-            None => last = Some(s.pos),
-            Some(p) => {
-                let d = haversine_m(p, s.pos, R);
-                if d >= inspect::TRACK_STEP_M {
-                    cum += d;
-                    pts.push((s.t, cum, initial_bearing_deg(p, s.pos)));
-                    last = Some(s.pos);
-                }
-            }
-        }
-    }
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i + 1 < pts.len() {
-        let (mut net, mut j, mut hit) = (0.0, i + 1, false);
-        while j < pts.len() && pts[j].1 - pts[i].1 <= inspect::TURN_WINDOW_M {
-            net += angle_diff_deg(pts[j - 1].2, pts[j].2);
-            if net.abs() > inspect::TURN_MIN_DEG {
-                out.push(pts[i].0);
-                hit = true;
-                break;
-            }
-            j += 1;
-        }
-        i = if hit { j } else { i + 1 };
-    }
-    out
+    inspect::turn_events(samples, R).into_iter().map(|e| e.0).collect()
 }
 
 /// Applies `kind` at `onset_t` with parameters drawn from `seed`.

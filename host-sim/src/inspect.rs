@@ -99,9 +99,10 @@ pub fn stops(samples: &[Sample]) -> usize {
     count
 }
 
-pub fn turns(samples: &[Sample], r_m: f64) -> (usize, usize) {
-    // Thin the track to points TRACK_STEP_M apart: (cumulative distance, heading of the step).
-    let mut pts: Vec<(f64, f64)> = Vec::new();
+/// Real turns: start time and sign (+ = right) of every net heading change over
+/// `TURN_MIN_DEG` within `TURN_WINDOW_M` of track thinned to `TRACK_STEP_M`.
+pub fn turn_events(samples: &[Sample], r_m: f64) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64, f64)> = Vec::new(); // (t, cumulative distance, heading)
     let mut last: Option<LatLon> = None;
     let mut cum = 0.0;
     for s in samples {
@@ -111,22 +112,20 @@ pub fn turns(samples: &[Sample], r_m: f64) -> (usize, usize) {
                 let d = haversine_m(p, s.pos, r_m);
                 if d >= TRACK_STEP_M {
                     cum += d;
-                    pts.push((cum, initial_bearing_deg(p, s.pos)));
+                    pts.push((s.t, cum, initial_bearing_deg(p, s.pos)));
                     last = Some(s.pos);
                 }
             }
         }
     }
-    let (mut left, mut right) = (0, 0);
+    let mut out = Vec::new();
     let mut i = 0;
     while i + 1 < pts.len() {
-        let mut net = 0.0;
-        let mut j = i + 1;
-        let mut hit = false;
-        while j < pts.len() && pts[j].0 - pts[i].0 <= TURN_WINDOW_M {
-            net += angle_diff_deg(pts[j - 1].1, pts[j].1);
+        let (mut net, mut j, mut hit) = (0.0, i + 1, false);
+        while j < pts.len() && pts[j].1 - pts[i].1 <= TURN_WINDOW_M {
+            net += angle_diff_deg(pts[j - 1].2, pts[j].2);
             if net.abs() > TURN_MIN_DEG {
-                if net > 0.0 { right += 1 } else { left += 1 }
+                out.push((pts[i].0, net.signum()));
                 hit = true;
                 break;
             }
@@ -134,5 +133,11 @@ pub fn turns(samples: &[Sample], r_m: f64) -> (usize, usize) {
         }
         i = if hit { j } else { i + 1 };
     }
-    (left, right)
+    out
+}
+
+pub fn turns(samples: &[Sample], r_m: f64) -> (usize, usize) {
+    let ev = turn_events(samples, r_m);
+    let right = ev.iter().filter(|e| e.1 > 0.0).count();
+    (ev.len() - right, right)
 }

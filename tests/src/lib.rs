@@ -31,16 +31,5 @@ pub fn host_sim(args: &[&str]) -> Output {
 
 /// The real-data folder, or `None` after printing why the test is skipped (a failure in CI).
 pub fn data_dir(test: &str) -> Option<PathBuf> {
-    let d = std::env::var_os("GNSS_DATA_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    if d.join("drives").is_dir() {
-        return Some(d);
-    }
-    let msg = format!("{test}: real data not found at {} (set GNSS_DATA_DIR)", d.display());
-    if std::env::var("CI").is_ok_and(|v| v == "true") {
-        panic!("{msg}; CI must run with ../shared/data");
-    }
-    eprintln!("SKIPPED {msg}");
-    None
+    host_sim::require_data(test)
 }

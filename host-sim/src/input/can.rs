@@ -24,58 +24,17 @@ pub const RAV4: &[Mapping] = &[
     Mapping { message: "ACCELEROMETER", signal: "ACCEL_X", plus: None, to: Signal::LongAccel, scale: 1.0 },
 ];
 
-/// A bit field of a CAN payload, as a DBC describes it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Field {
-    pub start_bit: u16,
-    pub size: u8,
-    pub big_endian: bool,
-    pub signed: bool,
-    pub factor: f64,
-    pub offset: f64,
-}
+/// The bit-field decoder is the firmware's own (one implementation for both).
+pub use gnss_guard_board::can::Field;
 
-impl Field {
-    fn from_dbc(s: &can_dbc::Signal) -> Self {
-        Field {
-            start_bit: s.start_bit as u16,
-            size: s.size as u8,
-            big_endian: s.byte_order == can_dbc::ByteOrder::BigEndian,
-            signed: s.value_type == can_dbc::ValueType::Signed,
-            factor: s.factor,
-            offset: s.offset,
-        }
-    }
-
-    /// The raw integer, or `None` when the field does not fit in `data`.
-    pub fn raw(&self, data: &[u8]) -> Option<i64> {
-        let n = self.size as u32;
-        if n == 0 || n > 64 {
-            return None;
-        }
-        let mut v: u64 = 0;
-        let mut bit = self.start_bit as usize;
-        for i in 0..n {
-            let byte = *data.get(bit / 8)?;
-            let b = (byte >> (bit % 8)) & 1;
-            if self.big_endian {
-                // Motorola: start bit is the MSB; walk down within a byte, then to the next byte's MSB.
-                v = (v << 1) | b as u64;
-                bit = if bit.is_multiple_of(8) { bit + 15 } else { bit - 1 };
-            } else {
-                v |= (b as u64) << i;
-                bit += 1;
-            }
-        }
-        if self.signed && n < 64 && (v >> (n - 1)) & 1 == 1 {
-            Some((v | (!0u64 << n)) as i64)
-        } else {
-            Some(v as i64)
-        }
-    }
-
-    pub fn physical(&self, data: &[u8]) -> Option<f64> {
-        self.raw(data).map(|r| r as f64 * self.factor + self.offset)
+fn field_from_dbc(s: &can_dbc::Signal) -> Field {
+    Field {
+        start_bit: s.start_bit as u16,
+        size: s.size as u8,
+        big_endian: s.byte_order == can_dbc::ByteOrder::BigEndian,
+        signed: s.value_type == can_dbc::ValueType::Signed,
+        factor: s.factor,
+        offset: s.offset,
     }
 }
 
@@ -93,7 +52,7 @@ impl Decoder {
         for m in profile {
             let msg = dbc.messages.iter().find(|x| x.name == m.message)
                 .ok_or_else(|| format!("expected message {} in the DBC", m.message))?;
-            let find = |name: &str| msg.signals.iter().find(|s| s.name == name).map(Field::from_dbc)
+            let find = |name: &str| msg.signals.iter().find(|s| s.name == name).map(field_from_dbc)
                 .ok_or_else(|| format!("expected signal {}.{} in the DBC", m.message, name));
             let main = find(m.signal)?;
             let plus = m.plus.map(find).transpose()?;
