@@ -169,9 +169,22 @@ fn expand(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     Ok(files)
 }
 
+/// `println!` that ends the program quietly when stdout is closed (`host-sim ... | head`).
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout(), $($t)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+        }
+    }};
+}
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.downcast_ref::<InputError>().is_some() || e.downcast_ref::<std::io::Error>().is_some() {
@@ -197,7 +210,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             for s in &all {
                 if json {
-                    println!("{}", serde_json::to_string(s)?);
+                    outln!("{}", serde_json::to_string(s)?);
                 } else {
                     print_stats(s);
                 }
@@ -260,11 +273,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Demo { data, out, scenarios, seed } => {
             let dir = data.unwrap_or_else(input::data_dir);
             if dir.join("drives").is_dir() {
-                println!("demo: using the REAL drives in {}", dir.display());
+                outln!("demo: using the REAL drives in {}", dir.display());
                 let drives = load_drives(&dir.join("drives"))?;
                 run_eval(drives, "real", scenarios, seed, &out)
             } else {
-                println!("demo: {} not found: using two SIMULATED drives (10 Hz and 1 Hz receivers; seed {seed})", dir.display());
+                outln!("demo: {} not found: using two SIMULATED drives (10 Hz and 1 Hz receivers; seed {seed})", dir.display());
                 let drives = sim::demo_drives(seed).into_iter().map(|r| eval::Drive::new(r, SyncConfig::default())).collect();
                 run_eval(drives, "simulated", scenarios, seed, &out)
             }
@@ -275,7 +288,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             drives.extend(host_sim::turns::sim_drives());
             let (blob, rep, _) = host_sim::turns::train_and_evaluate(&drives, seed);
             host_sim::output::write_atomic(&out, |w| w.write_all(&blob))?;
-            println!("{}", serde_json::to_string_pretty(&rep)?);
+            outln!("{}", serde_json::to_string_pretty(&rep)?);
             eprintln!("wrote {} ({} templates, {} bytes)", out.display(), rep.templates, blob.len());
             Ok(())
         }
@@ -302,8 +315,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             host_sim::output::write_atomic(&export, |w| serde_json::to_writer(w, &serde_json::json!({
                 "band": set.band(), "templates": templates, "queries": queries, "rust_us_per_query": us,
             })).map_err(std::io::Error::other))?;
-            println!("queries {} templates {} (checksum {sink:.1})", q.len(), set.len());
-            println!("rust_us_per_query: {us:.2}");
+            outln!("queries {} templates {} (checksum {sink:.1})", q.len(), set.len());
+            outln!("rust_us_per_query: {us:.2}");
             Ok(())
         }
         Cmd::Digest { data, export } => {
@@ -312,10 +325,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if let Some(p) = export {
                 host_sim::output::write_atomic(&p, |w| w.write_all(&bytes))?;
             }
-            println!("input: {desc}");
+            outln!("input: {desc}");
             let (lines, pass) = host_sim::qemu_input::run_all(&bytes);
             for l in lines {
-                println!("{l}");
+                outln!("{l}");
             }
             if !pass {
                 anyhow::bail!("a scenario failed");
@@ -325,23 +338,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Calibrate { paths, load } => {
             let files = expand(&paths)?;
             let st = host_sim::calibrate::run(&files, &load.options(), load.sync())?;
-            println!("{}", serde_json::to_string_pretty(&st)?);
+            outln!("{}", serde_json::to_string_pretty(&st)?);
             Ok(())
         }
     }
 }
 
 fn print_stats(s: &inspect::DriveStats) {
-    println!("{}", s.path);
-    println!("  format {}  epochs {}  duration {:.1} s  GNSS {:.2} Hz  distance {:.0} m", s.format, s.epochs, s.duration_s, s.gnss_hz, s.distance_m);
+    outln!("{}", s.path);
+    outln!("  format {}  epochs {}  duration {:.1} s  GNSS {:.2} Hz  distance {:.0} m", s.format, s.epochs, s.duration_s, s.gnss_hz, s.distance_m);
     let sig: Vec<String> = s.signals.iter().map(|(k, v)| format!("{k} {:.0}%", v * 100.0)).collect();
-    println!("  valid: {}", sig.join(", "));
-    println!("  stops {}  turns left {} right {}", s.stops, s.turns_left, s.turns_right);
+    outln!("  valid: {}", sig.join(", "));
+    outln!("  stops {}  turns left {} right {}", s.stops, s.turns_left, s.turns_right);
     if s.skipped_rows > 0 {
-        println!("  skipped bad rows: {}", s.skipped_rows);
+        outln!("  skipped bad rows: {}", s.skipped_rows);
     }
     for n in &s.notes {
-        println!("  note: {n}");
+        outln!("  note: {n}");
     }
 }
 
@@ -370,8 +383,8 @@ fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, o
     turn_drives.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));
     r.turns = Some(host_sim::turns::evaluate_default(&turn_drives));
     let files = report::write_all(&r, out)?;
-    println!("{}", report::headline(&r));
-    println!("Table 3 (scenarios in which each strategy fired):\n{}", report::table3(&r));
-    println!("wrote {} files under {} (report.json, report.md, figures/)", files.len(), out.display());
+    outln!("{}", report::headline(&r));
+    outln!("Table 3 (scenarios in which each strategy fired):\n{}", report::table3(&r));
+    outln!("wrote {} files under {} (report.json, report.md, figures/)", files.len(), out.display());
     Ok(())
 }
