@@ -243,23 +243,7 @@ pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Atta
             } else {
                 let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
                 params = format!("turns {} by 90 deg over 6 s where the car goes straight", if sign > 0.0 { "right" } else { "left" });
-                let mut prev_true = origin;
-                let mut prev_new = origin;
-                for (k, f) in new.iter_mut().enumerate().skip(k0) {
-                    let phi = sign * 90.0 * ((f.t - onset_t) / 6.0).clamp(0.0, 1.0);
-                    let truth = fixes[k].pos;
-                    let (e, n) = to_local(prev_true, truth, R);
-                    let (s, c) = phi.to_radians().sin_cos();
-                    // Rotate the true step clockwise by phi (bearings grow clockwise).
-                    let (e2, n2) = (e * c + n * s, -e * s + n * c);
-                    let p = from_local(prev_new, e2, n2, R);
-                    prev_true = truth;
-                    prev_new = p;
-                    f.pos = p;
-                    if let Some(cd) = f.course_deg {
-                        f.course_deg = Some(wrap_360(cd as f64 + phi) as f32);
-                    }
-                }
+                rotate_steps(&fixes, &mut new, k0, |t| sign * 90.0 * ((t - onset_t) / 6.0).clamp(0.0, 1.0));
             }
         }
         AttackKind::SlowDrift => {
@@ -294,21 +278,7 @@ pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Atta
             let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
             value = w;
             params = format!("steps rotated at {:.1} deg/s (up to 90 deg)", sign * w);
-            let origin = fixes.get(k0).map(|f| f.pos).unwrap_or_default();
-            let (mut prev_true, mut prev_new) = (origin, origin);
-            for (k, f) in new.iter_mut().enumerate().skip(k0) {
-                let phi = sign * (w * (f.t - onset_t)).clamp(0.0, 90.0);
-                let truth = fixes[k].pos;
-                let (e, n) = to_local(prev_true, truth, R);
-                let (sn, cs) = phi.to_radians().sin_cos();
-                let p = from_local(prev_new, e * cs + n * sn, -e * sn + n * cs, R);
-                prev_true = truth;
-                prev_new = p;
-                f.pos = p;
-                if let Some(cd) = f.course_deg {
-                    f.course_deg = Some(wrap_360(cd as f64 + phi) as f32);
-                }
-            }
+            rotate_steps(&fixes, &mut new, k0, |t| sign * (w * (t - onset_t)).clamp(0.0, 90.0));
         }
         AttackKind::Replay => {
             let d: f64 = rng.random_range(1.0..10.0);
@@ -341,6 +311,25 @@ pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Atta
         spec: AttackSpec { kind, seed, onset_t, params, value },
         true_track: fixes.iter().map(|f| (f.t, f.pos)).collect(),
         perceived: new.iter().map(|f| (f.t, f.pos)).collect(),
+    }
+}
+
+/// From fix `k0` on, the true steps rotated clockwise by `phi(t)` degrees (bearings grow
+/// clockwise), chained from the onset position; the course turns with them.
+fn rotate_steps(truth: &[Fix], new: &mut [Fix], k0: usize, phi: impl Fn(f64) -> f64) {
+    let origin = truth.get(k0).map(|f| f.pos).unwrap_or_default();
+    let (mut prev_true, mut prev_new) = (origin, origin);
+    for (k, f) in new.iter_mut().enumerate().skip(k0) {
+        let a = phi(f.t);
+        let (e, n) = to_local(prev_true, truth[k].pos, R);
+        let (sn, cs) = a.to_radians().sin_cos();
+        let p = from_local(prev_new, e * cs + n * sn, -e * sn + n * cs, R);
+        prev_true = truth[k].pos;
+        prev_new = p;
+        f.pos = p;
+        if let Some(cd) = f.course_deg {
+            f.course_deg = Some(wrap_360(cd as f64 + a) as f32);
+        }
     }
 }
 
