@@ -73,7 +73,10 @@ pub fn generate(data: &Path) -> Result<(Vec<u8>, String), input::InputError> {
         let d = format!("REAL drive: comma2k19 segment {} ({} CAN frames, {} u-blox fixes)", seg.display(), f.len(), r.fixes().count());
         (r, f, d)
     } else {
-        let r = crate::sim::drive(7, 1.0, 10.0);
+        let mut r = crate::sim::drive(7, 1.0, 10.0);
+        // The first 60 s: the embedded input must fit the STM32F405's 1 MiB of flash.
+        let end = r.events.first().map_or(0.0, |e| e.t()) + 60.0;
+        r.events.retain(|e| e.t() <= end);
         let f = frames_sim(&r);
         let d = format!("SIMULATED drive (no {}): {} CAN frames, {} fixes", seg.display(), f.len(), r.fixes().count());
         (r, f, d)
