@@ -11,6 +11,7 @@
 pub mod consistency;
 pub mod dtw;
 pub mod location_shift;
+pub mod lstm;
 pub mod motion;
 pub mod turn;
 
