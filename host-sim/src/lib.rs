@@ -10,6 +10,7 @@ pub mod detect;
 pub mod eval;
 pub mod input;
 pub mod inspect;
+pub mod lstm;
 pub mod output;
 pub mod qemu_input;
 pub mod replay;
