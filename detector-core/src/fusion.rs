@@ -33,9 +33,11 @@ impl Config {
         Config {
             shift: ShiftConfig {
                 predictor_error_m: p.kinematic_max_error_m,
+                fallback_error_m: p.kinematic_max_error_m,
                 gnss_error_m: p.gnss_error_m,
                 nominal_dt_s: p.nominal_dt_s,
                 max_dt_s: 3.0,
+                settle_s: 5.0,
             },
             motion: MotionConfig {
                 wheel_stop_mps: 0.3,
@@ -61,6 +63,15 @@ impl Config {
                 min_speed_mps: 5.0,
             },
         }
+    }
+}
+
+impl Config {
+    /// [`Config::for_profile`] with strategy 1's error term of this predictor.
+    pub fn for_predictor(p: &ReceiverProfile, predictor: &crate::strategy::location_shift::Predictor) -> Self {
+        let mut c = Config::for_profile(p);
+        c.shift.predictor_error_m = predictor.error_term_m(p);
+        c
     }
 }
 
@@ -95,10 +106,12 @@ pub enum Reason {
     InvalidSample = 12,
     /// Degraded: S2 lacks steering or a GNSS course.
     NoTurnInputs = 13,
+    /// Degraded: S1 waits for the receiver to settle after start-up.
+    GnssSettling = 14,
 }
 
 impl Reason {
-    pub const ALL: [Reason; 14] = [
+    pub const ALL: [Reason; 15] = [
         Reason::ShiftExceedsPrediction,
         Reason::ShiftBelowPrediction,
         Reason::GnssMovingWheelsStanding,
@@ -113,6 +126,7 @@ impl Reason {
         Reason::TimeDiscontinuity,
         Reason::InvalidSample,
         Reason::NoTurnInputs,
+        Reason::GnssSettling,
     ];
     pub const fn name(self) -> &'static str {
         match self {
@@ -130,6 +144,7 @@ impl Reason {
             Reason::TimeDiscontinuity => "time_discontinuity",
             Reason::InvalidSample => "invalid_sample",
             Reason::NoTurnInputs => "no_turn_inputs",
+            Reason::GnssSettling => "gnss_settling",
         }
     }
 }
@@ -199,6 +214,9 @@ pub struct Detector<'t, P: ShiftPredictor> {
     prev_t: Option<f64>,
     epoch: u32,
     first_alarm: Option<FirstAlarm>,
+    /// Time of the first valid epoch, until the receiver has settled (then `None` for good).
+    settling_since: Option<f64>,
+    settled: bool,
 }
 
 impl<'t, P: ShiftPredictor> Detector<'t, P> {
@@ -215,6 +233,8 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             prev_t: None,
             epoch: 0,
             first_alarm: None,
+            settling_since: None,
+            settled: false,
         }
     }
 
@@ -294,13 +314,27 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             v.reasons.insert(Reason::TimeDiscontinuity);
         }
         self.prev_t = Some(s.t);
+        if !self.settled {
+            let since = *self.settling_since.get_or_insert(s.t);
+            // Time going backwards ends the wait too: it must never last. (`s.t` is finite here.)
+            self.settled = s.t < since || s.t - since >= self.cfg.shift.settle_s as f64;
+        }
 
         // Strategy 1. The predictor sees every sample so its state stays current.
         let predicted = self.predictor.predict(s);
+        let mut shift_cfg = self.cfg.shift;
+        let fallback = self.predictor.used_fallback();
+        if fallback {
+            shift_cfg.predictor_error_m = shift_cfg.fallback_error_m;
+        }
         let dt_ok = continuous && s.dt_s.is_finite() && s.dt_s > 0.0 && s.dt_s <= max_dt;
+        if !self.settled {
+            v.reasons.insert(Reason::GnssSettling);
+        }
         match (s.shift_m.get().filter(|d| d.is_finite() && *d >= 0.0), predicted.filter(|p| p.is_finite())) {
-            (Some(shift), Some(pred)) if dt_ok => {
-                let o = self.cfg.shift.judge(shift, pred, s.dt_s);
+            (Some(shift), Some(pred)) if dt_ok && self.settled => {
+                let mut o = shift_cfg.judge(shift, pred, s.dt_s);
+                o.fallback = fallback;
                 v.ran.insert(StrategyId::LocationShift);
                 if o.fired {
                     v.fired.insert(StrategyId::LocationShift);

@@ -56,8 +56,29 @@ fn consistent_drive_never_fires() {
         let d = Drive::new(dt, 300, |k| 12.0 + 5.0 * ((k as f32) * 0.05).sin(), |_, p| p);
         let v = d.run();
         assert!(v.iter().all(|x| !x.alarm), "dt {dt}");
-        assert!(v.iter().skip(2).all(|x| x.ran.contains(StrategyId::LocationShift) && x.ran.contains(StrategyId::Motion)));
+        // S1 waits for the receiver to settle (5 s after start-up), then runs at every epoch.
+        let settled = (5.0 / dt).round() as usize;
+        assert!(v[..settled].iter().all(|x| !x.ran.contains(StrategyId::LocationShift) && x.reasons.contains(Reason::GnssSettling)));
+        assert!(v.iter().skip(settled).all(|x| x.ran.contains(StrategyId::LocationShift) && x.ran.contains(StrategyId::Motion)));
+        assert!(v.iter().skip(2).all(|x| x.ran.contains(StrategyId::Motion)));
     }
+}
+
+#[test]
+fn settling_is_only_at_start_up() {
+    // A time discontinuity restarts the strategies but S1 does not wait again.
+    let mut d = Drive::new(1.0, 60, |_| 10.0, |_, p| p);
+    for s in d.samples.iter_mut().skip(30) {
+        s.t += 100.0;
+    }
+    let v = d.run();
+    assert!(v[30].reasons.contains(Reason::TimeDiscontinuity));
+    assert!(v[31..].iter().all(|x| x.ran.contains(StrategyId::LocationShift) && !x.reasons.contains(Reason::GnssSettling)));
+    // Time going backwards at start-up ends the wait instead of prolonging it.
+    let mut d = Drive::new(1.0, 20, |_| 10.0, |_, p| p);
+    d.samples[2].t = -50.0;
+    let v = d.run();
+    assert!(v[4..].iter().all(|x| !x.reasons.contains(Reason::GnssSettling)));
 }
 
 #[test]

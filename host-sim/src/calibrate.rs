@@ -55,6 +55,8 @@ pub fn run(files: &[PathBuf], opts: &LoadOptions, sync: SyncConfig) -> Result<BT
         let mut cfg = Config::for_profile(p);
         cfg.shift.predictor_error_m = 0.0;
         cfg.shift.gnss_error_m = 0.0;
+        // Every epoch counts, the receiver's start-up included (conservative).
+        cfg.shift.settle_s = 0.0;
         let verdicts = detect::run(&samples, cfg);
         let st = out.entry(p.name).or_insert_with(|| ProfileStats {
             min_gnss_speed_moving_mps: f64::INFINITY,
@@ -111,6 +113,7 @@ fn consistency(files: &[PathBuf], opts: &LoadOptions, sync: SyncConfig, out: &mu
         let p = detect::profile_of(&samples);
         let mut cfg = Config::for_profile(p);
         cfg.consistency.enabled = false;
+        cfg.shift.settle_s = 0.0;
         let verdicts = detect::run(&samples, cfg);
         drives.push((p.name, cfg, samples, verdicts));
     }

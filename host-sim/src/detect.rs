@@ -3,7 +3,8 @@
 use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::profile::{self, ReceiverProfile};
 use detector_core::sample::Sample;
-use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::location_shift::{KinematicPredictor, Predictor, ShiftPredictor, WithFallback};
+use detector_core::strategy::lstm::{LstmModel, LstmPredictor, DEFAULT_MODEL};
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
 use detector_core::strategy::StrategyId;
 use serde::Serialize;
@@ -25,10 +26,75 @@ pub fn default_templates() -> TemplateSet<'static> {
     TemplateSet::parse(DEFAULT_TEMPLATES).expect("the committed template blob is valid")
 }
 
-/// Verdicts of the full detector (kinematic predictor, all strategies), one per sample.
-pub fn run(samples: &[Sample], cfg: Config) -> Vec<Verdict> {
-    let mut d = Detector::new(cfg, KinematicPredictor::default()).with_turns(default_templates());
+/// The f32 twin of the default LSTM model (the reference the int8 model is checked against).
+pub const DEFAULT_MODEL_F32: &[u8] = include_bytes!("../../detector-core/models/lstm.f32.bin");
+
+/// Strategy 1's predictor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum PredictorKind {
+    /// Wheel-speed dead reckoning.
+    Kinematic,
+    /// The LSTM, integer kernel on the int8 model (what the firmware runs).
+    Lstm,
+    /// The LSTM, f32 reference kernel on the f32 model (fidelity checks only).
+    LstmF32,
+}
+
+impl PredictorKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            PredictorKind::Kinematic => "kinematic",
+            PredictorKind::Lstm => "lstm",
+            PredictorKind::LstmF32 => "lstm-f32",
+        }
+    }
+}
+
+pub fn default_lstm() -> LstmModel<'static> {
+    LstmModel::parse(DEFAULT_MODEL).expect("the committed LSTM blob is valid")
+}
+
+pub fn default_lstm_f32() -> LstmModel<'static> {
+    LstmModel::parse(DEFAULT_MODEL_F32).expect("the committed f32 LSTM blob is valid")
+}
+
+/// The runtime predictor of a kind (the f32 reference is host-only and has no variant). The
+/// LSTM falls back to the kinematic predictor (and its error term) where it lacks inputs.
+pub fn predictor(kind: PredictorKind) -> Predictor<'static> {
+    match kind {
+        PredictorKind::Kinematic => Predictor::Kinematic(KinematicPredictor::default()),
+        _ => Predictor::Lstm(WithFallback::new(LstmPredictor::int(default_lstm()).expect("int8 blob"))),
+    }
+}
+
+/// The detector configuration of a profile with the predictor's error term.
+pub fn config(p: &ReceiverProfile, kind: PredictorKind) -> Config {
+    let mut c = Config::for_profile(p);
+    c.shift.predictor_error_m = match kind {
+        PredictorKind::Kinematic => p.kinematic_max_error_m,
+        PredictorKind::Lstm => default_lstm().max_error_m(p.nominal_dt_s),
+        PredictorKind::LstmF32 => default_lstm_f32().max_error_m(p.nominal_dt_s),
+    };
+    c
+}
+
+fn run_detector<P: ShiftPredictor>(samples: &[Sample], cfg: Config, p: P) -> Vec<Verdict> {
+    let mut d = Detector::new(cfg, p).with_turns(default_templates());
     samples.iter().map(|s| d.step(s)).collect()
+}
+
+/// Verdicts of the full detector (all strategies) with this predictor, one per sample.
+pub fn run_with(samples: &[Sample], cfg: Config, kind: PredictorKind) -> Vec<Verdict> {
+    match kind {
+        PredictorKind::LstmF32 => run_detector(samples, cfg, WithFallback::new(LstmPredictor::reference(default_lstm_f32()))),
+        k => run_detector(samples, cfg, predictor(k)),
+    }
+}
+
+/// Verdicts with the kinematic predictor (calibration, and where a test needs it).
+pub fn run(samples: &[Sample], cfg: Config) -> Vec<Verdict> {
+    run_with(samples, cfg, PredictorKind::Kinematic)
 }
 
 fn names(set: detector_core::strategy::StrategySet) -> Vec<&'static str> {
@@ -47,7 +113,7 @@ pub fn verdict_json(v: &Verdict) -> Value {
         "reasons": v.reasons.iter().map(|r| r.name()).collect::<Vec<_>>(),
     });
     if let Some(s) = v.shift {
-        o["shift"] = json!({"gnss_m": s.gnss_shift_m, "predicted_m": s.predicted_m, "residual_m": s.residual_m, "threshold_m": s.threshold_m});
+        o["shift"] = json!({"gnss_m": s.gnss_shift_m, "predicted_m": s.predicted_m, "residual_m": s.residual_m, "threshold_m": s.threshold_m, "fallback": s.fallback});
     }
     if let Some(m) = v.motion {
         o["motion"] = json!({"wheel": format!("{:?}", m.wheel).to_lowercase(), "gnss": format!("{:?}", m.gnss).to_lowercase(), "disagree_s": m.disagree_s});
@@ -67,6 +133,9 @@ pub fn verdict_line(v: &Verdict) -> String {
     let mut l = format!("{:>6} t={:>9.2} alarm={}", v.epoch, v.t, if v.alarm { "YES" } else { "no " });
     if let Some(s) = v.shift {
         l += &format!(" shift {:6.2} m pred {:6.2} m |res| {:6.2} / thr {:5.2}", s.gnss_shift_m, s.predicted_m, s.residual_m.abs(), s.threshold_m);
+        if s.fallback {
+            l += " (kinematic fallback)";
+        }
     }
     if !v.fired.is_empty() {
         l += &format!(" FIRED {:?}", names(v.fired));

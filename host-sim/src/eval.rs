@@ -7,7 +7,8 @@
 //! reproducible whatever the thread count.
 
 use crate::attack::{self, AttackKind};
-use crate::detect;
+use crate::detect::{self, PredictorKind};
+use crate::lstm;
 use crate::input::{Format, Replay};
 use crate::replay;
 use detector_core::fusion::{Config, Verdict};
@@ -70,16 +71,18 @@ pub struct EvalOptions {
     pub sync: SyncConfig,
     /// Changes the detector configuration (tests use it to disable strategies).
     pub tweak: Option<fn(&mut Config)>,
+    /// Strategy 1's predictor.
+    pub predictor: PredictorKind,
 }
 
 impl Default for EvalOptions {
     fn default() -> Self {
-        Self { scenarios: 10, seed: 1, sync: SyncConfig::default(), tweak: None }
+        Self { scenarios: 10, seed: 1, sync: SyncConfig::default(), tweak: None, predictor: PredictorKind::Lstm }
     }
 }
 
 fn config_for(d: &Drive, o: &EvalOptions) -> Config {
-    let mut c = Config::for_profile(d.profile);
+    let mut c = detect::config(d.profile, o.predictor);
     if let Some(f) = o.tweak {
         f(&mut c);
     }
@@ -108,6 +111,14 @@ pub struct CleanDrive {
     pub profile: &'static str,
     pub judged: bool,
     pub false_alarms: usize,
+    /// Epochs where strategy 1 ran.
+    pub s1_epochs: usize,
+    /// FNV-1a of every verdict (as the firmware's digest).
+    pub digest: String,
+    /// FNV-1a of the decisions only (ran, fired, degraded, reasons, alarm per epoch).
+    pub decisions: String,
+    /// The same up to the first alarm.
+    pub decisions_to_alarm: String,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -148,6 +159,12 @@ pub struct Scenario {
     pub strategies: Vec<&'static str>,
     /// Alarm episodes before the onset (on clean data: false alarms).
     pub pre_onset_alarms: usize,
+    /// FNV-1a of every verdict (as the firmware's digest).
+    pub digest: String,
+    /// FNV-1a of the decisions only (ran, fired, degraded, reasons, alarm per epoch).
+    pub decisions: String,
+    /// The same up to the first alarm.
+    pub decisions_to_alarm: String,
     #[serde(skip)]
     pub trace: Vec<TracePoint>,
     #[serde(skip)]
@@ -193,6 +210,144 @@ pub struct Report {
     pub paper_strategies_only: Option<BTreeMap<&'static str, KindStats>>,
     /// The smallest slow-drift rate detected within 10 s, m/s.
     pub smallest_drift_detected_10s_mps: Option<f64>,
+    /// Strategy 1's predictors side by side (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predictors: Option<BTreeMap<&'static str, PredictorStats>>,
+    /// The int8 LSTM against its f32 original (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quantization: Option<Quantization>,
+}
+
+/// One predictor on the validation epochs of one receiver profile.
+#[derive(Clone, Debug, Serialize)]
+pub struct ProfileErr {
+    pub validation_epochs: usize,
+    pub rmse_m: f64,
+    pub max_abs_m: f64,
+    /// Strategy 1's threshold at the nominal epoch: error term + GNSS error term.
+    pub threshold_m: f64,
+}
+
+/// One predictor: accuracy on the validation drives (the LSTM never saw them) and what the
+/// whole detector achieved with it.
+#[derive(Clone, Debug, Serialize)]
+pub struct PredictorStats {
+    /// Pooled over the validation epochs of both profiles (absent without real data).
+    pub rmse_m: Option<f64>,
+    pub max_abs_m: Option<f64>,
+    /// The largest nominal threshold of the profiles.
+    pub threshold_m: f64,
+    pub profiles: BTreeMap<&'static str, ProfileErr>,
+    pub detection_rate: BTreeMap<&'static str, f64>,
+    pub rate_within_10s: BTreeMap<&'static str, f64>,
+    pub false_alarms: usize,
+    /// Epochs of the clean drives where strategy 1 ran.
+    pub s1_epochs_clean: usize,
+}
+
+/// The deployed int8 integer kernel against the f32 model it was quantised from.
+#[derive(Clone, Debug, Serialize)]
+pub struct Quantization {
+    pub validation_epochs: usize,
+    /// Largest |int - f32| predicted shift over the validation epochs, metres.
+    pub max_abs_diff_m: Option<f64>,
+    /// Largest |int - f32| / strategy-1 threshold of the epoch's profile.
+    pub ratio_to_threshold: Option<f64>,
+    /// Every clean drive and scenario gave the same decisions (ran, fired, degraded, reasons,
+    /// alarm) at every epoch up to and including the first alarm: the same alarm, at the same
+    /// epoch, for the same reasons.
+    pub verdicts_identical: bool,
+    pub streams_compared: usize,
+    pub streams_differing: Vec<String>,
+    /// Streams whose per-epoch decisions differ anywhere, also after the (latched) first alarm,
+    /// where the spoofed inputs drive both kernels far outside the training range.
+    pub streams_differing_after_alarm: Vec<String>,
+}
+
+const PROFILES: [&ReceiverProfile; 2] = [&detector_core::profile::UBLOX_10HZ, &detector_core::profile::LOGGER_1HZ];
+
+fn thresholds(kind: PredictorKind) -> [f64; 2] {
+    PROFILES.map(|p| detect::config(p, kind).shift.threshold_m(p.nominal_dt_s) as f64)
+}
+
+/// Signed validation errors `[10 Hz, 1 Hz]` of a predictor, metres.
+fn validation_errors(kind: PredictorKind, runs: &[lstm::Run], drives: &[Drive]) -> [Vec<f64>; 2] {
+    use detector_core::strategy::lstm::LstmPredictor;
+    match kind {
+        PredictorKind::Kinematic => lstm::kinematic_errors(runs, drives),
+        PredictorKind::Lstm => lstm::lstm_errors(&mut LstmPredictor::int(detect::default_lstm()).expect("int8"), runs),
+        PredictorKind::LstmF32 => lstm::lstm_errors(&mut LstmPredictor::reference(detect::default_lstm_f32()), runs),
+    }
+}
+
+/// The validation runs of the default LSTM's split (empty on simulated data).
+pub fn validation_runs(drives: &[Drive]) -> Vec<lstm::Run> {
+    lstm::split(drives, &lstm::TrainOptions::default()).1
+}
+
+pub fn predictor_stats(kind: PredictorKind, drives: &[Drive], r: &Report) -> PredictorStats {
+    let runs = validation_runs(drives);
+    let e = validation_errors(kind, &runs, drives);
+    let th = thresholds(kind);
+    let all: Vec<f64> = e[0].iter().chain(&e[1]).copied().collect();
+    let pooled = lstm::ErrStats::of(&all);
+    let mut profiles = BTreeMap::new();
+    for (i, p) in PROFILES.iter().enumerate() {
+        let st = lstm::ErrStats::of(&e[i]);
+        profiles.insert(p.name, ProfileErr { validation_epochs: st.epochs, rmse_m: st.rmse_m, max_abs_m: st.max_abs_m, threshold_m: th[i] });
+    }
+    PredictorStats {
+        rmse_m: (!all.is_empty()).then_some(pooled.rmse_m),
+        max_abs_m: (!all.is_empty()).then_some(pooled.max_abs_m),
+        threshold_m: th[0].max(th[1]),
+        profiles,
+        detection_rate: r.attacks.iter().map(|(k, s)| (*k, s.detection_rate)).collect(),
+        rate_within_10s: r.attacks.iter().map(|(k, s)| (*k, s.rate_within_10s)).collect(),
+        false_alarms: r.clean.false_alarms,
+        s1_epochs_clean: r.clean.per_drive.iter().map(|c| c.s1_epochs).sum(),
+    }
+}
+
+/// Compares the int8 run with the f32 run: predictions on the validation epochs, and verdict
+/// digests of every clean drive and scenario.
+pub fn quantization(drives: &[Drive], int: &Report, f32r: &Report) -> Quantization {
+    let runs = validation_runs(drives);
+    let a = validation_errors(PredictorKind::Lstm, &runs, drives);
+    let b = validation_errors(PredictorKind::LstmF32, &runs, drives);
+    let th = thresholds(PredictorKind::Lstm);
+    let (mut diff, mut ratio, mut n) = (None::<f64>, None::<f64>, 0);
+    for c in 0..2 {
+        for (x, y) in a[c].iter().zip(&b[c]) {
+            let d = (x - y).abs();
+            diff = Some(diff.map_or(d, |m| m.max(d)));
+            ratio = Some(ratio.map_or(d / th[c], |m| m.max(d / th[c])));
+            n += 1;
+        }
+    }
+    let (mut differing, mut after) = (vec![], vec![]);
+    for (x, y) in int.clean.per_drive.iter().zip(&f32r.clean.per_drive) {
+        if x.decisions_to_alarm != y.decisions_to_alarm {
+            differing.push(format!("clean {}", x.drive));
+        } else if x.decisions != y.decisions {
+            after.push(format!("clean {}", x.drive));
+        }
+    }
+    for (x, y) in int.scenarios.iter().zip(&f32r.scenarios) {
+        if x.decisions_to_alarm != y.decisions_to_alarm {
+            differing.push(x.id.clone());
+        } else if x.decisions != y.decisions {
+            after.push(x.id.clone());
+        }
+    }
+    Quantization {
+        validation_epochs: n,
+        max_abs_diff_m: diff,
+        ratio_to_threshold: ratio,
+        verdicts_identical: differing.is_empty(),
+        streams_compared: int.clean.per_drive.len() + int.scenarios.len(),
+        streams_differing: differing,
+        streams_differing_after_alarm: after,
+    }
 }
 
 fn pct(sorted: &[f64], q: f64) -> Option<f64> {
@@ -204,8 +359,34 @@ fn pct(sorted: &[f64], q: f64) -> Option<f64> {
     Some(sorted[i])
 }
 
+/// The firmware's verdict digest of a verdict stream, in hex.
+pub fn digest(v: &[Verdict]) -> String {
+    let mut d = gnss_guard_board::pipeline::Digest::default();
+    for x in v {
+        d.add(x);
+    }
+    format!("{:016x}", d.0)
+}
+
+/// [`decisions`] up to and including the first alarm (all of it without an alarm).
+pub fn decisions_to_alarm(v: &[Verdict]) -> String {
+    let n = v.iter().position(|x| x.alarm).map_or(v.len(), |i| i + 1);
+    decisions(&v[..n])
+}
+
+/// FNV-1a of the decisions of a verdict stream, in hex.
+pub fn decisions(v: &[Verdict]) -> String {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for x in v {
+        for b in x.epoch.to_le_bytes().into_iter().chain([x.ran.0, x.fired.0, x.degraded.0, x.alarm as u8]).chain(x.reasons.0.to_le_bytes()) {
+            h = (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    format!("{h:016x}")
+}
+
 fn run_clean(d: &Drive, o: &EvalOptions) -> CleanDrive {
-    let v = detect::run(&d.samples, config_for(d, o));
+    let v = detect::run_with(&d.samples, config_for(d, o), o.predictor);
     CleanDrive {
         drive: d.name.clone(),
         source: d.source.clone(),
@@ -213,6 +394,10 @@ fn run_clean(d: &Drive, o: &EvalOptions) -> CleanDrive {
         profile: d.profile.name,
         judged: d.has_wheel_speed(),
         false_alarms: alarm_episodes(&v),
+        s1_epochs: v.iter().filter(|x| x.ran.contains(StrategyId::LocationShift)).count(),
+        digest: digest(&v),
+        decisions: decisions(&v),
+        decisions_to_alarm: decisions_to_alarm(&v),
     }
 }
 
@@ -254,7 +439,7 @@ pub fn run_scenario(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usi
     window.events.retain(|e| e.t() >= onset - PRE_ONSET_S && e.t() <= onset + WINDOW_S);
     let a = attack::apply(&window, kind, seed, onset);
     let (samples, _) = replay::synchronize(&a.replay, o.sync);
-    let v = detect::run(&samples, config_for(d, o));
+    let v = detect::run_with(&samples, config_for(d, o), o.predictor);
     let first_attacked = v.iter().position(|x| x.t >= onset);
     let det = v.iter().position(|x| x.t >= onset && !x.fired.is_empty());
     let mut fired = detector_core::strategy::StrategySet::EMPTY;
@@ -276,6 +461,9 @@ pub fn run_scenario(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usi
         ttd_epochs: det.zip(first_attacked).map(|(i, f)| i - f),
         strategies: fired.iter().map(StrategyId::name).collect(),
         pre_onset_alarms: alarm_episodes(&pre),
+        digest: digest(&v),
+        decisions: decisions(&v),
+        decisions_to_alarm: decisions_to_alarm(&v),
         trace: v
             .iter()
             .map(|x| TracePoint { t: x.t - onset, residual_m: x.shift.map(|s| s.residual_m.abs()), threshold_m: x.shift.map(|s| s.threshold_m) })
@@ -358,7 +546,7 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
     let profiles: BTreeMap<&str, serde_json::Value> = drives.iter().map(|d| {
         let c = config_for(d, o);
         (d.profile.name, serde_json::json!({
-            "s1_predictor": "kinematic",
+            "s1_predictor": o.predictor.name(),
             "s1_predictor_error_m": c.shift.predictor_error_m,
             "s1_gnss_error_m": c.shift.gnss_error_m,
             "s1_threshold_m": c.shift.threshold_m(d.profile.nominal_dt_s),
@@ -383,5 +571,7 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
         turns: None,
         paper_strategies_only: None,
         smallest_drift_detected_10s_mps: smallest_drift,
+        predictors: None,
+        quantization: None,
     }
 }

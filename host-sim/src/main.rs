@@ -79,6 +79,9 @@ enum Cmd {
         /// Receiver profile (default: from the drive's fix rate).
         #[arg(long, value_parser = ["ublox-10hz", "logger-1hz"])]
         profile: Option<String>,
+        /// Strategy 1's predictor (default: the LSTM, whose model is built in).
+        #[arg(long, value_enum, default_value = "lstm")]
+        predictor: detect::PredictorKind,
         #[command(flatten)]
         load: LoadArgs,
     },
@@ -110,6 +113,9 @@ enum Cmd {
         out: PathBuf,
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Strategy 1's predictor for the main run (the report shows both side by side).
+        #[arg(long, value_enum, default_value = "lstm")]
+        predictor: detect::PredictorKind,
     },
     /// The main job: evaluate on the real drives if present, else on a simulated drive.
     Demo {
@@ -122,16 +128,29 @@ enum Cmd {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
-    /// Train a model: `turns` (DTW k-NN templates for strategy 2).
+    /// Train a model: `turns` (DTW k-NN templates for strategy 2) or `lstm` (strategy 1's
+    /// predictor; writes OUT (int8), OUT with `.f32.bin` and the training report `.train.json`).
     Train {
-        #[arg(value_parser = ["turns"])]
+        #[arg(value_parser = ["turns", "lstm"])]
         what: String,
         #[arg(long)]
         data: Option<PathBuf>,
         #[arg(long)]
         out: PathBuf,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
+        #[arg(long)]
+        seed: Option<u64>,
+        /// lstm: units of the two layers.
+        #[arg(long, value_delimiter = ',', default_values_t = [128usize, 64])]
+        hidden: Vec<usize>,
+        /// lstm: most epochs (early stopping on validation MAE ends sooner).
+        #[arg(long, default_value_t = 500)]
+        epochs: usize,
+        /// lstm: epochs without a better validation MAE before stopping.
+        #[arg(long, default_value_t = 25)]
+        patience: usize,
+        /// lstm: training window, GNSS epochs.
+        #[arg(long, default_value_t = 32)]
+        window: usize,
     },
     /// Time the turn classifier on the held-out turns and export them for tests/bench/dtw_vs_fastdtw.sh.
     DtwBench {
@@ -140,6 +159,12 @@ enum Cmd {
         /// JSON with the templates and queries, for the Python comparison.
         #[arg(long)]
         export: PathBuf,
+    },
+    /// Time the LSTM on this host (one core): the core's streaming step (integer and f32
+    /// reference) and burn's batch forward per observation; print the model blob sizes.
+    LstmBench {
+        #[arg(long)]
+        data: Option<PathBuf>,
     },
     /// Run the QEMU image's input through the same board pipeline on the host; print the digest.
     Digest {
@@ -217,7 +242,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Cmd::Detect { path, json, profile, load } => {
+        Cmd::Detect { path, json, profile, predictor, load } => {
             let files = expand(std::slice::from_ref(&path))?;
             if files.len() != 1 {
                 anyhow::bail!(InputError::file(&path, format!("expected one drive, found {} inside", files.len())));
@@ -229,7 +254,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Some(_) => &detector_core::profile::LOGGER_1HZ,
                 None => detect::profile_of(&samples),
             };
-            let verdicts = detect::run(&samples, detector_core::fusion::Config::for_profile(p));
+            let verdicts = detect::run_with(&samples, detect::config(p, predictor), predictor);
             let summary = detect::summarize(&verdicts, p);
             let mut out = std::io::BufWriter::new(std::io::stdout().lock());
             use std::io::Write;
@@ -265,24 +290,41 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             eprintln!("wrote {}: {} from t={onset:.2} s ({})", out.display(), kind.name(), a.spec.params);
             Ok(())
         }
-        Cmd::Eval { data, scenarios, out, seed } => {
+        Cmd::Eval { data, scenarios, out, seed, predictor } => {
             let dir = data.unwrap_or_else(input::data_dir);
             let drives = load_drives(&dir.join("drives"))?;
-            run_eval(drives, "real", scenarios, seed, &out)
+            run_eval(drives, "real", scenarios, seed, predictor, &out)
         }
         Cmd::Demo { data, out, scenarios, seed } => {
             let dir = data.unwrap_or_else(input::data_dir);
             if dir.join("drives").is_dir() {
                 outln!("demo: using the REAL drives in {}", dir.display());
                 let drives = load_drives(&dir.join("drives"))?;
-                run_eval(drives, "real", scenarios, seed, &out)
+                run_eval(drives, "real", scenarios, seed, detect::PredictorKind::Lstm, &out)
             } else {
                 outln!("demo: {} not found: using two SIMULATED drives (10 Hz and 1 Hz receivers; seed {seed})", dir.display());
                 let drives = sim::demo_drives(seed).into_iter().map(|r| eval::Drive::new(r, SyncConfig::default())).collect();
-                run_eval(drives, "simulated", scenarios, seed, &out)
+                run_eval(drives, "simulated", scenarios, seed, detect::PredictorKind::Lstm, &out)
             }
         }
-        Cmd::Train { what: _, data, out, seed } => {
+        Cmd::Train { what, data, out, seed, hidden, epochs, patience, window } if what == "lstm" => {
+            let dir = data.unwrap_or_else(input::data_dir);
+            let drives = load_drives(&dir.join("drives"))?;
+            anyhow::ensure!(hidden.len() == 2, "--hidden takes two sizes, e.g. 128,64");
+            let d = host_sim::lstm::TrainOptions::default();
+            let o = host_sim::lstm::TrainOptions { h1: hidden[0], h2: hidden[1], max_epochs: epochs, patience, window, seed: seed.unwrap_or(d.seed), ..d };
+            let (int_blob, f32_blob, rep) = host_sim::lstm::train(&drives, &o, &|e, t, v| eprintln!("epoch {e:4}  train MAE {t:.5}  validation MAE {v:.5}"))?;
+            let f32_path = out.with_extension("f32.bin");
+            host_sim::output::write_atomic(&out, |w| w.write_all(&int_blob))?;
+            host_sim::output::write_atomic(&f32_path, |w| w.write_all(&f32_blob))?;
+            let json = serde_json::to_string_pretty(&rep)?;
+            host_sim::output::write_atomic(&out.with_extension("train.json"), |w| w.write_all(json.as_bytes()))?;
+            outln!("{json}");
+            eprintln!("wrote {} ({} bytes, int8) and {} ({} bytes, f32)", out.display(), int_blob.len(), f32_path.display(), f32_blob.len());
+            Ok(())
+        }
+        Cmd::Train { what: _, data, out, seed, .. } => {
+            let seed = seed.unwrap_or(1);
             let dir = data.unwrap_or_else(input::data_dir);
             let mut drives = load_drives(&dir.join("drives"))?;
             drives.extend(host_sim::turns::sim_drives());
@@ -317,6 +359,45 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             })).map_err(std::io::Error::other))?;
             outln!("queries {} templates {} (checksum {sink:.1})", q.len(), set.len());
             outln!("rust_us_per_query: {us:.2}");
+            Ok(())
+        }
+        Cmd::LstmBench { data } => {
+            use detector_core::strategy::lstm::LstmPredictor;
+            let dir = data.unwrap_or_else(input::data_dir);
+            let drives = load_drives(&dir.join("drives"))?;
+            let runs = eval::validation_runs(&drives);
+            anyhow::ensure!(!runs.is_empty(), "no validation drives in {}", dir.display());
+            let xs: Vec<[f32; 4]> = runs.iter().flat_map(|r| r.x.iter().copied()).collect();
+            let time_stream = |step: &mut dyn FnMut([f32; 4]) -> f32| {
+                let t0 = std::time::Instant::now();
+                let mut sink = 0.0;
+                for x in &xs {
+                    sink += step(*x);
+                }
+                (t0.elapsed().as_secs_f64() * 1e6 / xs.len() as f64, sink)
+            };
+            let mut q = LstmPredictor::int(detect::default_lstm()).expect("int8");
+            let (us_int, _) = time_stream(&mut |x| q.step_raw(x));
+            let mut f = LstmPredictor::reference(detect::default_lstm_f32());
+            let (us_ref, _) = time_stream(&mut |x| f.step_raw(x));
+            // burn batch forward, same shapes (timing does not depend on the weights).
+            let device = burn::tensor::Device::default();
+            let net = host_sim::lstm::Net::new(128, 64, &device);
+            let (b, t) = (50usize, 32usize);
+            let data: Vec<f32> = xs.iter().cycle().take(b * t).flat_map(|x| x.map(|v| v / 30.0)).collect();
+            let input: burn::tensor::Tensor<3> = burn::tensor::Tensor::from_data(burn::tensor::TensorData::new(data, [b, t, 4]), &device);
+            let reps = 20;
+            let _ = net.forward(input.clone()).into_data();
+            let t0 = std::time::Instant::now();
+            for _ in 0..reps {
+                let _ = net.forward(input.clone()).into_data();
+            }
+            let us_batch = t0.elapsed().as_secs_f64() * 1e6 / (reps * b * t) as f64;
+            outln!("validation steps timed: {}", xs.len());
+            outln!("streaming step, integer kernel (int8):  {us_int:.1} us");
+            outln!("streaming step, f32 reference kernel:   {us_ref:.1} us");
+            outln!("burn batch forward [{b} x {t}] per observation: {us_batch:.2} us (paper: 0.691 us on a dual Xeon)");
+            outln!("model blob: {} bytes int8, {} bytes f32", detector_core::strategy::lstm::DEFAULT_MODEL.len(), detect::DEFAULT_MODEL_F32.len());
             Ok(())
         }
         Cmd::Digest { data, export } => {
@@ -367,8 +448,9 @@ fn load_drives(dir: &std::path::Path) -> anyhow::Result<Vec<eval::Drive>> {
         .collect()
 }
 
-fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, out: &std::path::Path) -> anyhow::Result<()> {
-    let o = eval::EvalOptions { scenarios, seed, ..Default::default() };
+fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, predictor: detect::PredictorKind, out: &std::path::Path) -> anyhow::Result<()> {
+    use detect::PredictorKind;
+    let o = eval::EvalOptions { scenarios, seed, predictor, ..Default::default() };
     let total = drives.len() + eval::plan(&drives, &o).len();
     let bar = indicatif::ProgressBar::new(total as u64);
     bar.set_style(indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}").unwrap().progress_chars("=> "));
@@ -378,6 +460,17 @@ fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, o
     // The same scenarios judged by the paper's strategies alone, for the comparison table.
     let paper = eval::EvalOptions { tweak: Some(|c| c.consistency.enabled = false), ..o };
     r.paper_strategies_only = Some(eval::evaluate(&drives, &paper, data, &|| {}).attacks);
+    // Strategy 1's predictors side by side, and the int8 LSTM against its f32 original, on the
+    // same drives and scenarios.
+    let runs: std::collections::BTreeMap<PredictorKind, eval::Report> = [PredictorKind::Kinematic, PredictorKind::Lstm, PredictorKind::LstmF32]
+        .into_iter()
+        .map(|k| (k, if k == predictor { r.clone() } else { eval::evaluate(&drives, &eval::EvalOptions { predictor: k, ..o }, data, &|| {}) }))
+        .collect();
+    r.predictors = Some([PredictorKind::Kinematic, PredictorKind::Lstm].into_iter().map(|k| (k.name(), eval::predictor_stats(k, &drives, &runs[&k]))).collect());
+    r.quantization = Some(eval::quantization(&drives, &runs[&PredictorKind::Lstm], &runs[&PredictorKind::LstmF32]));
+    if let Some(p) = &r.predictors {
+        outln!("Strategy 1 predictors:\n{}", report::predictors(p, r.quantization.as_ref()));
+    }
     // Strategy 2's classifier on the held-out turns (real drives of this run + held-out simulated).
     let mut turn_drives = drives;
     turn_drives.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));

@@ -137,14 +137,15 @@ pub fn generate(data: &Path) -> Result<(Vec<u8>, String), input::InputError> {
 /// report lines and whether every scenario passed.
 pub fn run_all(bytes: &[u8]) -> (Vec<String>, bool) {
     let input = fmt::Input::parse(bytes).expect("our own input");
-    let cfg = detector_core::fusion::Config::for_profile(&detector_core::profile::UBLOX_10HZ);
+    let predictor = detector_core::strategy::location_shift::Predictor::default_lstm();
+    let cfg = detector_core::fusion::Config::for_predictor(&detector_core::profile::UBLOX_10HZ, &predictor);
     let set = crate::detect::default_templates();
     let mut lines = Vec::new();
     let mut all = true;
     let mut digests = Vec::new();
     for i in 0..input.scenarios() {
         let sc = input.scenario(i).expect("scenario");
-        let o = fmt::run(&input, i, cfg, set, &mut || 0, &mut |_| {}).expect("run");
+        let o = fmt::run(&input, i, cfg, set, &predictor, &mut || 0, &mut |_| {}).expect("run");
         let pass = o.pass(sc.onset_s.is_nan(), fmt::MAX_ALARM_DELAY_S);
         all &= pass;
         digests.push(o.digest);

@@ -67,6 +67,7 @@ fn numbers_come_from_verdicts_a_blind_detector_detects_nothing() {
     let o = EvalOptions {
         tweak: Some(|c| {
             c.shift.predictor_error_m = f32::INFINITY;
+            c.shift.fallback_error_m = f32::INFINITY;
             c.motion.persist_s = f32::INFINITY;
             c.turn.gnss_turn_deg = f32::INFINITY;
             c.turn.straight_turn_deg = f32::INFINITY;

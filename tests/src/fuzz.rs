@@ -6,7 +6,7 @@ use detector_core::fusion::{Config, Detector};
 use detector_core::geo::LatLon;
 use detector_core::profile::{LOGGER_1HZ, UBLOX_10HZ};
 use detector_core::sample::{Fix, Reading, Sample, Signal};
-use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::location_shift::{KinematicPredictor, Predictor};
 use detector_core::strategy::turn::{self, TemplateSet, DEFAULT_TEMPLATES};
 use detector_core::sync::{SyncConfig, Synchronizer};
 use std::path::{Path, PathBuf};
@@ -30,8 +30,9 @@ pub fn nmea(data: &[u8]) {
 
 /// CAN frames (id, length, payload) into the generated DBC decoder and through the pipeline.
 pub fn can(data: &[u8]) {
-    let cfg = Config::for_profile(&UBLOX_10HZ);
-    let mut p = gnss_guard_board::pipeline::Pipeline::new(cfg, TemplateSet::parse(DEFAULT_TEMPLATES).ok());
+    let predictor = detector_core::strategy::location_shift::Predictor::default_lstm();
+    let cfg = Config::for_predictor(&UBLOX_10HZ, &predictor);
+    let mut p = gnss_guard_board::pipeline::Pipeline::new(cfg, TemplateSet::parse(DEFAULT_TEMPLATES).ok(), predictor);
     let mut t = 0.0;
     for rec in data.chunks(11) {
         if rec.len() < 3 {
@@ -145,13 +146,39 @@ pub fn template_blob(data: &[u8]) {
     }
 }
 
+/// The LSTM model blob parser, and both kernels on whatever it accepts.
+pub fn lstm_blob(data: &[u8]) {
+    use detector_core::strategy::lstm::{LstmModel, LstmPredictor};
+    let run = |bytes: &[u8]| {
+        if let Ok(m) = LstmModel::parse(bytes) {
+            let x = [f32::NAN, 1e30, -3.0, 20.0];
+            let _ = LstmPredictor::reference(m).step_raw(x);
+            if let Ok(mut p) = LstmPredictor::int(m) {
+                for _ in 0..3 {
+                    let _ = p.step_raw(x);
+                    let _ = p.step_raw([10.0, 20.0, 30.0, 10.0]);
+                }
+            }
+        }
+    };
+    run(data);
+    // Fixing up the CRC gets the fuzzer past it into the weights.
+    if data.len() >= 84 {
+        let mut v = data.to_vec();
+        let n = v.len() - 4;
+        let crc = detector_core::crc32::crc32(&v[..n]);
+        v[n..].copy_from_slice(&crc.to_le_bytes());
+        run(&v);
+    }
+}
+
 /// The QEMU/digest replay input parser and runner.
 pub fn replay_input(data: &[u8]) {
     use gnss_guard_board::replay;
     if let Ok(input) = replay::Input::parse(data) {
         let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
         for i in 0..input.scenarios().min(4) {
-            let _ = replay::run(&input, i, Config::for_profile(&UBLOX_10HZ), set, &mut || 0, &mut |_| {});
+            let _ = replay::run(&input, i, Config::for_profile(&UBLOX_10HZ), set, &detector_core::strategy::location_shift::Predictor::default_lstm(), &mut || 0, &mut |_| {});
         }
     }
 }
@@ -167,7 +194,12 @@ fn f64_at(d: &[u8], i: usize) -> f64 {
 /// Arbitrary sample sequences into the detector, and arbitrary events into the synchroniser.
 pub fn detector(data: &[u8]) {
     let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
-    let mut d = Detector::new(Config::for_profile(&LOGGER_1HZ), KinematicPredictor::default()).with_turns(set);
+    // Kinematic or LSTM by the first byte, so both predictors see the garbage.
+    let predictor = match data.first() {
+        Some(b) if b % 2 == 1 => Predictor::default_lstm(),
+        _ => Predictor::Kinematic(KinematicPredictor::default()),
+    };
+    let mut d = Detector::new(Config::for_predictor(&LOGGER_1HZ, &predictor), predictor).with_turns(set);
     let mut sync = Synchronizer::new(SyncConfig::default());
     let reading = |b: u8, v: f64| match b % 3 {
         0 => Reading::Valid(v as f32),
@@ -197,7 +229,7 @@ pub fn detector(data: &[u8]) {
 pub type Harness = fn(&[u8]);
 
 /// All harnesses by name (the fuzz targets and the corpus replay use the same names).
-pub const TARGETS: [(&str, Harness); 9] = [
+pub const TARGETS: [(&str, Harness); 10] = [
     ("nmea", nmea),
     ("can", can),
     ("drive_csv", drive_csv),
@@ -205,6 +237,7 @@ pub const TARGETS: [(&str, Harness); 9] = [
     ("hdd", hdd),
     ("comma2k19", comma2k19),
     ("template_blob", template_blob),
+    ("lstm_blob", lstm_blob),
     ("replay_input", replay_input),
     ("detector", detector),
 ];

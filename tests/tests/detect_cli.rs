@@ -40,7 +40,8 @@ fn clean_drives_raise_no_alarm_and_say_when_degraded() {
             assert!(lines.iter().all(|l| l["degraded"].as_array().unwrap().iter().any(|x| x == "location_shift")));
             degraded += 1;
         } else {
-            assert!(s["ran"]["location_shift"].as_u64().unwrap() + 10 >= n, "{}: S1 ran almost everywhere", p.display());
+            // Everywhere but the receiver's first 5 s (50 epochs at 10 Hz) and a few gaps.
+            assert!(s["ran"]["location_shift"].as_u64().unwrap() + 60 >= n, "{}: S1 ran almost everywhere", p.display());
             judged += 1;
         }
     }

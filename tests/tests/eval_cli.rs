@@ -26,6 +26,20 @@ fn eval_writes_report_markdown_and_figures() {
         assert!(a["scenarios"].as_u64().unwrap() >= 10);
     }
     assert!(r["config"]["profiles"].is_object());
+    // Strategy 1's predictors side by side; the LSTM is the default.
+    assert_eq!(r["config"]["profiles"]["logger-1hz"]["s1_predictor"], "lstm");
+    for p in ["kinematic", "lstm"] {
+        for k in ["rmse_m", "max_abs_m", "threshold_m"] {
+            assert!(r["predictors"][p][k].as_f64().unwrap() > 0.0, "predictors.{p}.{k}");
+        }
+        assert_eq!(r["predictors"][p]["false_alarms"], 0, "{p}");
+        assert!(r["predictors"][p]["detection_rate"]["turn-by-turn"].as_f64().unwrap() >= 0.9);
+    }
+    // The int8 model against its f32 original: within 2 % of the threshold, same verdicts.
+    let q = &r["quantization"];
+    assert!(q["validation_epochs"].as_u64().unwrap() > 3000);
+    assert!(q["ratio_to_threshold"].as_f64().unwrap() <= 0.02, "{q}");
+    assert_eq!(q["verdicts_identical"], true, "{q}");
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("Table 3") && md.contains("| turn-by-turn |"));
     let figs: Vec<_> = std::fs::read_dir(out.join("figures")).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();

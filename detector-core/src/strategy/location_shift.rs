@@ -29,6 +29,49 @@ pub trait ShiftPredictor {
     fn reset(&mut self);
     /// Short name for reports.
     fn name(&self) -> &'static str;
+    /// The last prediction came from the fallback (kinematic) predictor: judge it against
+    /// [`ShiftConfig::fallback_error_m`].
+    fn used_fallback(&self) -> bool {
+        false
+    }
+}
+
+/// A primary predictor with the kinematic predictor behind it: where the primary lacks its
+/// inputs (an LSTM on a car without a pedal signal), the kinematic prediction is judged against
+/// the kinematic error term ([`ShiftConfig::fallback_error_m`]) instead of leaving strategy 1
+/// degraded.
+#[derive(Clone, Debug)]
+pub struct WithFallback<P> {
+    pub primary: P,
+    fallback: KinematicPredictor,
+    used_fallback: bool,
+}
+
+impl<P: ShiftPredictor> WithFallback<P> {
+    pub fn new(primary: P) -> Self {
+        WithFallback { primary, fallback: KinematicPredictor::default(), used_fallback: false }
+    }
+}
+
+impl<P: ShiftPredictor> ShiftPredictor for WithFallback<P> {
+    fn predict(&mut self, s: &Sample) -> Option<f32> {
+        // Both see every sample, so either is current when needed.
+        let k = self.fallback.predict(s);
+        let p = self.primary.predict(s);
+        self.used_fallback = p.is_none() && k.is_some();
+        p.or(k)
+    }
+    fn reset(&mut self) {
+        self.primary.reset();
+        self.fallback.reset();
+        self.used_fallback = false;
+    }
+    fn name(&self) -> &'static str {
+        if self.used_fallback { self.fallback.name() } else { self.primary.name() }
+    }
+    fn used_fallback(&self) -> bool {
+        self.used_fallback
+    }
 }
 
 /// Wheel-speed dead reckoning: `(v_prev + v_cur) / 2 * dt`.
@@ -57,17 +100,82 @@ impl ShiftPredictor for KinematicPredictor {
     }
 }
 
+/// The predictors a build can choose between at run time (no `dyn`, no allocation).
+// No allocator to box the LSTM's 3 KB of state: the detector lives in static memory anyway.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+pub enum Predictor<'m> {
+    Kinematic(KinematicPredictor),
+    /// The LSTM's integer kernel, with the kinematic predictor where the LSTM lacks inputs.
+    Lstm(WithFallback<crate::strategy::lstm::LstmPredictor<'m, crate::strategy::lstm::IntKernel>>),
+}
+
+impl Predictor<'static> {
+    /// The LSTM with the committed model when it is valid, else the kinematic predictor.
+    pub fn default_lstm() -> Self {
+        use crate::strategy::lstm::{LstmModel, LstmPredictor, DEFAULT_MODEL};
+        match LstmModel::parse(DEFAULT_MODEL).and_then(LstmPredictor::int) {
+            Ok(l) => Predictor::Lstm(WithFallback::new(l)),
+            Err(_) => Predictor::Kinematic(KinematicPredictor::default()),
+        }
+    }
+}
+
+impl Predictor<'_> {
+    /// The measured maximum prediction error of this predictor at this receiver profile: the
+    /// first term of strategy 1's threshold.
+    pub fn error_term_m(&self, p: &crate::profile::ReceiverProfile) -> f32 {
+        match self {
+            Predictor::Kinematic(_) => p.kinematic_max_error_m,
+            Predictor::Lstm(l) => l.primary.model.max_error_m(p.nominal_dt_s),
+        }
+    }
+}
+
+impl ShiftPredictor for Predictor<'_> {
+    fn predict(&mut self, s: &Sample) -> Option<f32> {
+        match self {
+            Predictor::Kinematic(p) => p.predict(s),
+            Predictor::Lstm(p) => p.predict(s),
+        }
+    }
+    fn reset(&mut self) {
+        match self {
+            Predictor::Kinematic(p) => p.reset(),
+            Predictor::Lstm(p) => p.reset(),
+        }
+    }
+    fn name(&self) -> &'static str {
+        match self {
+            Predictor::Kinematic(p) => p.name(),
+            Predictor::Lstm(p) => p.name(),
+        }
+    }
+    fn used_fallback(&self) -> bool {
+        match self {
+            Predictor::Kinematic(p) => p.used_fallback(),
+            Predictor::Lstm(p) => p.used_fallback(),
+        }
+    }
+}
+
 /// Tuning of strategy 1. See the module documentation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShiftConfig {
     /// Maximum absolute prediction error at the nominal epoch duration, metres.
     pub predictor_error_m: f32,
+    /// The same for the fallback (kinematic) predictor, used where it made the prediction.
+    pub fallback_error_m: f32,
     /// GNSS positioning error term, metres (epoch-to-epoch, from the receiver profile).
     pub gnss_error_m: f32,
     /// Nominal epoch duration of the receiver, seconds.
     pub nominal_dt_s: f32,
     /// Epochs longer than this are a discontinuity: not judged. Seconds.
     pub max_dt_s: f32,
+    /// Nothing is judged until the receiver has reported for this long after the detector's
+    /// first epoch (a receiver's first fixes are unsettled: css session0 steps 16 to 18 m within
+    /// its first 5 s). Only at start-up, never after a restart. Seconds.
+    pub settle_s: f32,
 }
 
 /// What strategy 1 concluded at one epoch.
@@ -79,6 +187,8 @@ pub struct ShiftOutcome {
     pub residual_m: f32,
     pub threshold_m: f32,
     pub fired: bool,
+    /// The fallback (kinematic) predictor made this prediction.
+    pub fallback: bool,
 }
 
 impl ShiftConfig {
@@ -91,6 +201,6 @@ impl ShiftConfig {
     pub fn judge(&self, gnss_shift_m: f32, predicted_m: f32, dt_s: f32) -> ShiftOutcome {
         let residual_m = gnss_shift_m - predicted_m;
         let threshold_m = self.threshold_m(dt_s);
-        ShiftOutcome { gnss_shift_m, predicted_m, residual_m, threshold_m, fired: residual_m.abs() > threshold_m }
+        ShiftOutcome { gnss_shift_m, predicted_m, residual_m, threshold_m, fired: residual_m.abs() > threshold_m, fallback: false }
     }
 }

@@ -140,12 +140,17 @@ async fn gnss_task(mut rx: RingBufferedUartRx<'static>) {
 
 #[embassy_executor::task]
 async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatchdog<'static, peripherals::IWDG>) {
-    let cfg = detector_core::fusion::Config::for_profile(&detector_core::profile::UBLOX_10HZ);
+    // Strategy 1: the LSTM with the built-in model, or the kinematic predictor if it is invalid.
+    let predictor = detector_core::strategy::location_shift::Predictor::default_lstm();
+    if !matches!(predictor, detector_core::strategy::location_shift::Predictor::Lstm(_)) {
+        warn!("LSTM model invalid: strategy 1 uses the kinematic predictor");
+    }
+    let cfg = detector_core::fusion::Config::for_predictor(&detector_core::profile::UBLOX_10HZ, &predictor);
     let templates = detector_core::strategy::turn::TemplateSet::parse(detector_core::strategy::turn::DEFAULT_TEMPLATES).ok();
     if templates.is_none() {
         warn!("turn templates invalid: strategy 2 disabled");
     }
-    let mut p = Pipeline::new(cfg, templates);
+    let mut p = Pipeline::new(cfg, templates, predictor);
     let mut latched = false;
     loop {
         let mut on_verdict = |v: &detector_core::fusion::Verdict| {

@@ -5,7 +5,7 @@ use crate::can;
 use crate::gnss::NmeaFixer;
 use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::sample::Sample;
-use detector_core::strategy::location_shift::KinematicPredictor;
+use detector_core::strategy::location_shift::Predictor;
 use detector_core::strategy::turn::TemplateSet;
 use detector_core::sync::{SyncConfig, Synchronizer};
 
@@ -48,7 +48,7 @@ impl Digest {
 /// Everything between the receive tasks and the alarm output.
 pub struct Pipeline<'t> {
     sync: Synchronizer,
-    det: Detector<'t, KinematicPredictor>,
+    det: Detector<'t, Predictor<'t>>,
     pub nmea: NmeaFixer,
     pub digest: Digest,
     pub epochs: u32,
@@ -56,9 +56,10 @@ pub struct Pipeline<'t> {
 }
 
 impl<'t> Pipeline<'t> {
-    /// The full pipeline; without templates strategy 2 is left out.
-    pub fn new(cfg: Config, templates: Option<TemplateSet<'t>>) -> Self {
-        let det = Detector::new(cfg, KinematicPredictor::default());
+    /// The full pipeline; without templates strategy 2 is left out. `cfg.shift` must carry the
+    /// predictor's error term ([`Config::for_predictor`]).
+    pub fn new(cfg: Config, templates: Option<TemplateSet<'t>>, predictor: Predictor<'t>) -> Self {
+        let det = Detector::new(cfg, predictor);
         Self {
             sync: Synchronizer::new(SyncConfig::default()),
             det: match templates {
@@ -96,7 +97,7 @@ impl<'t> Pipeline<'t> {
 }
 
 /// One synchronised sample through the detector into the digest and out.
-fn judge(det: &mut Detector<'_, KinematicPredictor>, digest: &mut Digest, epochs: &mut u32, out: &mut impl FnMut(&Verdict), s: &Sample) {
+fn judge(det: &mut Detector<'_, Predictor<'_>>, digest: &mut Digest, epochs: &mut u32, out: &mut impl FnMut(&Verdict), s: &Sample) {
     let v = det.step(s);
     digest.add(&v);
     *epochs += 1;

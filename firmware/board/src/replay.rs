@@ -14,6 +14,7 @@
 use crate::pipeline::{Digest, Pipeline};
 use detector_core::fusion::Config;
 use detector_core::strategy::turn::TemplateSet;
+use detector_core::strategy::location_shift::{Predictor, ShiftPredictor};
 
 pub const MAGIC: &[u8; 4] = b"GGQI";
 pub const VERSION: u16 = 1;
@@ -141,16 +142,19 @@ impl Outcome {
 /// Replays scenario `i` through a fresh pipeline, in arrival order. `clock` returns a running
 /// cost counter (SysTick on the target, anything on the host); `cost` receives, for every epoch,
 /// the counter difference since the previous epoch: everything the firmware did for it.
-pub fn run(
+pub fn run<'t>(
     input: &Input,
     i: usize,
     cfg: Config,
-    templates: TemplateSet,
+    templates: TemplateSet<'t>,
+    predictor: &Predictor<'t>,
     clock: &mut dyn FnMut() -> u32,
     cost: &mut dyn FnMut(u32),
 ) -> Result<Outcome, InputError> {
     let sc = input.scenario(i)?;
-    let mut p = Pipeline::new(cfg, Some(templates));
+    let mut fresh = predictor.clone();
+    fresh.reset();
+    let mut p = Pipeline::new(cfg, Some(templates), fresh);
     let clean = sc.onset_s.is_nan();
     let mut o = Outcome { epochs: 0, alarm_t: None, alarm_after_epochs: None, alarm_after_s: None, early_alarms: 0, digest: Digest::default(), frames: 0, rejected_sentences: 0 };
     let mut onset_epoch: Option<u32> = None;

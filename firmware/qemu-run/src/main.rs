@@ -17,6 +17,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use detector_core::fusion::Config;
 use detector_core::profile::UBLOX_10HZ;
+use detector_core::strategy::location_shift::{KinematicPredictor, Predictor};
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
 use gnss_guard_board::replay::{self, Input};
 use panic_semihosting as _;
@@ -47,7 +48,11 @@ fn main() -> ! {
     hprintln!("input: {}", DESC);
     let Ok(input) = Input::parse(INPUT) else { fail("the embedded input is malformed") };
     let Ok(templates) = TemplateSet::parse(DEFAULT_TEMPLATES) else { fail("the turn templates are malformed") };
-    let cfg = Config::for_profile(&UBLOX_10HZ);
+    let predictor = Predictor::default_lstm();
+    if !matches!(predictor, Predictor::Lstm(_)) {
+        fail("the LSTM model is malformed");
+    }
+    let cfg = Config::for_predictor(&UBLOX_10HZ, &predictor);
 
     let mut last = SYST::get_current();
     let mut total: u32 = 0;
@@ -65,7 +70,7 @@ fn main() -> ! {
         let mut cost = |c: u32| {
             let _ = costs.push(c);
         };
-        let Ok(o) = replay::run(&input, i, cfg, templates, &mut clock, &mut cost) else { fail("replay failed") };
+        let Ok(o) = replay::run(&input, i, cfg, templates, &predictor, &mut clock, &mut cost) else { fail("replay failed") };
         let pass = o.pass(sc.onset_s.is_nan(), replay::MAX_ALARM_DELAY_S);
         all &= pass;
         let _ = digests.push(o.digest);
@@ -87,11 +92,35 @@ fn main() -> ! {
         let mut cost = |c: u32| {
             let _ = paper_costs.push(c);
         };
-        if replay::run(&input, i, paper_cfg, templates, &mut clock, &mut cost).is_err() {
+        if replay::run(&input, i, paper_cfg, templates, &predictor, &mut clock, &mut cost).is_err() {
             fail("replay failed");
         }
     }
     report("instructions per epoch (paper strategies only)", &mut paper_costs);
+    // Strategy 1's predictors alone: the same scenarios with the kinematic predictor, and the
+    // LSTM's integer step by itself on the inputs of a cruising car.
+    let kin = Predictor::Kinematic(KinematicPredictor::default());
+    let kin_cfg = Config::for_predictor(&UBLOX_10HZ, &kin);
+    let mut kin_costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
+    for i in 0..input.scenarios() {
+        let mut cost = |c: u32| {
+            let _ = kin_costs.push(c);
+        };
+        if replay::run(&input, i, kin_cfg, templates, &kin, &mut clock, &mut cost).is_err() {
+            fail("replay failed");
+        }
+    }
+    report("instructions per epoch (kinematic predictor)", &mut kin_costs);
+    if let Predictor::Lstm(mut l) = predictor {
+        let mut step_costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
+        for k in 0..64u32 {
+            let x = [25.0 + (k % 7) as f32 * 0.1, 20.0, (k % 11) as f32 - 5.0, 25.0];
+            let a = clock();
+            core::hint::black_box(l.primary.step_raw(core::hint::black_box(x)));
+            let _ = step_costs.push(clock().wrapping_sub(a));
+        }
+        report("instructions per LSTM step (integer kernel)", &mut step_costs);
+    }
     hprintln!("verdict digest: {:016x}", replay::combine(&digests));
     hprintln!("qemu-run: {}", if all { "PASS" } else { "FAIL" });
     debug::exit(if all { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
