@@ -111,8 +111,9 @@ pub struct CleanDrive {
     pub profile: &'static str,
     pub judged: bool,
     pub false_alarms: usize,
-    /// Epochs where strategy 1 ran.
+    /// Epochs where strategy 1 ran, and where it ran on the LSTM itself (not its fallback).
     pub s1_epochs: usize,
+    pub s1_lstm_epochs: usize,
     /// FNV-1a of every verdict (as the firmware's digest).
     pub digest: String,
     /// FNV-1a of the decisions only (ran, fired, degraded, reasons, alarm per epoch).
@@ -241,8 +242,10 @@ pub struct PredictorStats {
     pub detection_rate: BTreeMap<&'static str, f64>,
     pub rate_within_10s: BTreeMap<&'static str, f64>,
     pub false_alarms: usize,
-    /// Epochs of the clean drives where strategy 1 ran.
+    /// Epochs of the clean drives where strategy 1 ran, and where the LSTM itself made the
+    /// prediction (elsewhere it lacked an input and the kinematic fallback did).
     pub s1_epochs_clean: usize,
+    pub s1_lstm_epochs_clean: usize,
 }
 
 /// The deployed int8 integer kernel against the f32 model it was quantised from.
@@ -305,6 +308,7 @@ pub fn predictor_stats(kind: PredictorKind, drives: &[Drive], r: &Report) -> Pre
         rate_within_10s: r.attacks.iter().map(|(k, s)| (*k, s.rate_within_10s)).collect(),
         false_alarms: r.clean.false_alarms,
         s1_epochs_clean: r.clean.per_drive.iter().map(|c| c.s1_epochs).sum(),
+        s1_lstm_epochs_clean: r.clean.per_drive.iter().map(|c| c.s1_lstm_epochs).sum(),
     }
 }
 
@@ -395,6 +399,7 @@ fn run_clean(d: &Drive, o: &EvalOptions) -> CleanDrive {
         judged: d.has_wheel_speed(),
         false_alarms: alarm_episodes(&v),
         s1_epochs: v.iter().filter(|x| x.ran.contains(StrategyId::LocationShift)).count(),
+        s1_lstm_epochs: if o.predictor == PredictorKind::Kinematic { 0 } else { v.iter().filter(|x| x.shift.is_some_and(|s| !s.fallback)).count() },
         digest: digest(&v),
         decisions: decisions(&v),
         decisions_to_alarm: decisions_to_alarm(&v),

@@ -468,9 +468,6 @@ fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, p
         .collect();
     r.predictors = Some([PredictorKind::Kinematic, PredictorKind::Lstm].into_iter().map(|k| (k.name(), eval::predictor_stats(k, &drives, &runs[&k]))).collect());
     r.quantization = Some(eval::quantization(&drives, &runs[&PredictorKind::Lstm], &runs[&PredictorKind::LstmF32]));
-    if let Some(p) = &r.predictors {
-        outln!("Strategy 1 predictors:\n{}", report::predictors(p, r.quantization.as_ref()));
-    }
     // Strategy 2's classifier on the held-out turns (real drives of this run + held-out simulated).
     let mut turn_drives = drives;
     turn_drives.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));
@@ -478,6 +475,9 @@ fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, p
     let files = report::write_all(&r, out)?;
     outln!("{}", report::headline(&r));
     outln!("Table 3 (scenarios in which each strategy fired):\n{}", report::table3(&r));
+    if let Some(p) = &r.predictors {
+        outln!("Strategy 1 predictors:\n{}", report::predictors(p, r.quantization.as_ref()));
+    }
     outln!("wrote {} files under {} (report.json, report.md, figures/)", files.len(), out.display());
     Ok(())
 }

@@ -82,13 +82,13 @@ pub fn predictors(p: &std::collections::BTreeMap<&'static str, crate::eval::Pred
         }
     }
     let kinds: Vec<&str> = p.values().next().map(|v| v.detection_rate.keys().copied().collect()).unwrap_or_default();
-    let _ = write!(s, "\n| predictor | false alarms | S1 epochs (clean) |");
+    let _ = write!(s, "\n| predictor | false alarms | S1 epochs (clean; by the LSTM itself) |");
     for k in &kinds {
         let _ = write!(s, " {k} |");
     }
     let _ = write!(s, "\n|---|---|---|{}", "---|".repeat(kinds.len()));
     for (name, v) in p {
-        let _ = write!(s, "\n| {name} | {} | {} |", v.false_alarms, v.s1_epochs_clean);
+        let _ = write!(s, "\n| {name} | {} | {} ({}) |", v.false_alarms, v.s1_epochs_clean, v.s1_lstm_epochs_clean);
         for k in &kinds {
             let _ = write!(s, " {:.0} % ({:.0} % in 10 s) |", 100.0 * v.detection_rate[k], 100.0 * v.rate_within_10s[k]);
         }
@@ -96,7 +96,7 @@ pub fn predictors(p: &std::collections::BTreeMap<&'static str, crate::eval::Pred
     let _ = writeln!(s, "\n");
     if let Some(q) = q {
         let _ = writeln!(s, "int8 integer kernel vs the f32 model on {} validation epochs: max |int - f32| {} ({} of the threshold); decisions identical up to the first alarm on all {} streams: **{}** (differing after the latched alarm: {}).\n",
-            q.validation_epochs, opt(q.max_abs_diff_m, " m"), q.ratio_to_threshold.map_or("-".into(), |v| format!("{:.2} %", 100.0 * v)), q.streams_compared, q.verdicts_identical,
+            q.validation_epochs, q.max_abs_diff_m.map_or("-".into(), |v| format!("{v:.3} m")), q.ratio_to_threshold.map_or("-".into(), |v| format!("{:.2} %", 100.0 * v)), q.streams_compared, q.verdicts_identical,
             if q.streams_differing_after_alarm.is_empty() { "none".to_string() } else { q.streams_differing_after_alarm.join(", ") });
     }
     s
