@@ -223,8 +223,9 @@ pub struct Report {
 #[derive(Clone, Debug, Serialize)]
 pub struct ProfileErr {
     pub validation_epochs: usize,
-    pub rmse_m: f64,
-    pub max_abs_m: f64,
+    /// Absent without validation epochs (simulated data).
+    pub rmse_m: Option<f64>,
+    pub max_abs_m: Option<f64>,
     /// Strategy 1's threshold at the nominal epoch: error term + GNSS error term.
     pub threshold_m: f64,
 }
@@ -297,7 +298,8 @@ pub fn predictor_stats(kind: PredictorKind, drives: &[Drive], r: &Report) -> Pre
     let mut profiles = BTreeMap::new();
     for (i, p) in PROFILES.iter().enumerate() {
         let st = lstm::ErrStats::of(&e[i]);
-        profiles.insert(p.name, ProfileErr { validation_epochs: st.epochs, rmse_m: st.rmse_m, max_abs_m: st.max_abs_m, threshold_m: th[i] });
+        let some = |v: f64| (st.epochs > 0).then_some(v);
+        profiles.insert(p.name, ProfileErr { validation_epochs: st.epochs, rmse_m: some(st.rmse_m), max_abs_m: some(st.max_abs_m), threshold_m: th[i] });
     }
     PredictorStats {
         rmse_m: (!all.is_empty()).then_some(pooled.rmse_m),

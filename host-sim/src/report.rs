@@ -78,7 +78,8 @@ pub fn predictors(p: &std::collections::BTreeMap<&'static str, crate::eval::Pred
     let _ = writeln!(s, "| predictor | profile | validation epochs | RMSE | max abs | threshold |\n|---|---|---|---|---|---|");
     for (k, v) in p {
         for (prof, e) in &v.profiles {
-            let _ = writeln!(s, "| {k} | {prof} | {} | {:.3} m | {:.3} m | {:.2} m |", e.validation_epochs, e.rmse_m, e.max_abs_m, e.threshold_m);
+            let m = |v: Option<f64>| v.map_or("- (no real validation drive)".to_string(), |v| format!("{v:.3} m"));
+            let _ = writeln!(s, "| {k} | {prof} | {} | {} | {} | {:.2} m |", e.validation_epochs, m(e.rmse_m), m(e.max_abs_m), e.threshold_m);
         }
     }
     let kinds: Vec<&str> = p.values().next().map(|v| v.detection_rate.keys().copied().collect()).unwrap_or_default();
@@ -94,7 +95,9 @@ pub fn predictors(p: &std::collections::BTreeMap<&'static str, crate::eval::Pred
         }
     }
     let _ = writeln!(s, "\n");
-    if let Some(q) = q {
+    if let Some(q) = q.filter(|q| q.validation_epochs == 0) {
+        let _ = writeln!(s, "int8 integer kernel vs the f32 model: no real validation drive here; decisions identical up to the first alarm on all {} streams: **{}**.\n", q.streams_compared, q.verdicts_identical);
+    } else if let Some(q) = q {
         let _ = writeln!(s, "int8 integer kernel vs the f32 model on {} validation epochs: max |int - f32| {} ({} of the threshold); decisions identical up to the first alarm on all {} streams: **{}** (differing after the latched alarm: {}).\n",
             q.validation_epochs, q.max_abs_diff_m.map_or("-".into(), |v| format!("{v:.3} m")), q.ratio_to_threshold.map_or("-".into(), |v| format!("{:.2} %", 100.0 * v)), q.streams_compared, q.verdicts_identical,
             if q.streams_differing_after_alarm.is_empty() { "none".to_string() } else { q.streams_differing_after_alarm.join(", ") });

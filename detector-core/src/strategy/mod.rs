@@ -2,6 +2,7 @@
 //! one per GNSS epoch, and reports whether it ran, whether it fired, and why.
 //!
 //! - [`location_shift`]: strategy 1, GNSS location shift vs a predicted shift.
+//! - [`lstm`]: strategy 1's learned predictor (the paper's LSTM), f32 reference and integer kernels.
 //! - [`motion`]: strategy 3, standstill vs motion from the wheels and from GNSS.
 //!
 //! - [`consistency`]: beyond the paper, for stealthy spoofing: residual CUSUM, speed and
