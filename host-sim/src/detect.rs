@@ -51,12 +51,16 @@ impl PredictorKind {
     }
 }
 
+/// The committed int8 model, validated once (its CRC covers 123 KB).
 pub fn default_lstm() -> LstmModel<'static> {
-    LstmModel::parse(DEFAULT_MODEL).expect("the committed LSTM blob is valid")
+    static M: std::sync::OnceLock<LstmModel<'static>> = std::sync::OnceLock::new();
+    *M.get_or_init(|| LstmModel::parse(DEFAULT_MODEL).expect("the committed LSTM blob is valid"))
 }
 
+/// The committed f32 twin, validated once.
 pub fn default_lstm_f32() -> LstmModel<'static> {
-    LstmModel::parse(DEFAULT_MODEL_F32).expect("the committed f32 LSTM blob is valid")
+    static M: std::sync::OnceLock<LstmModel<'static>> = std::sync::OnceLock::new();
+    *M.get_or_init(|| LstmModel::parse(DEFAULT_MODEL_F32).expect("the committed f32 LSTM blob is valid"))
 }
 
 /// The runtime predictor of a kind (the f32 reference is host-only and has no variant). The
