@@ -64,9 +64,7 @@ impl Config {
             },
         }
     }
-}
 
-impl Config {
     /// [`Config::for_profile`] with strategy 1's error term of this predictor.
     pub fn for_predictor(p: &ReceiverProfile, predictor: &crate::strategy::location_shift::Predictor) -> Self {
         let mut c = Config::for_profile(p);
@@ -214,7 +212,7 @@ pub struct Detector<'t, P: ShiftPredictor> {
     prev_t: Option<f64>,
     epoch: u32,
     first_alarm: Option<FirstAlarm>,
-    /// Time of the first valid epoch, until the receiver has settled (then `None` for good).
+    /// Time of the first valid epoch; S1 waits until `settle_s` after it (only at start-up).
     settling_since: Option<f64>,
     settled: bool,
 }
