@@ -27,7 +27,7 @@ fn test_blobs(h1: usize, h2: usize) -> (Vec<u8>, Vec<u8>) {
             out_min: 0.0, out_max: 40.0, max_err_m: [0.5, 3.0], rmse_m: [0.1, 1.0],
             layers: [(&l1.0, &l1.1), (&l2.0, &l2.1), (&d.0, &d.1)],
         };
-        let mut b = vec![0u8; spec.len()];
+        let mut b = vec![0u8; spec.byte_len()];
         assert!(spec.write(&mut b));
         b
     };

@@ -242,7 +242,7 @@ pub fn export(net: &Net, h1: usize, h2: usize, r: &Ranges, max_err_m: [f32; 2], 
         rmse_m,
         layers: [(&w1, &b1), (&w2, &b2), (&wd, &bd)],
     };
-    let mut out = vec![0u8; spec.len()];
+    let mut out = vec![0u8; spec.byte_len()];
     assert!(spec.write(&mut out), "blob shapes");
     out
 }

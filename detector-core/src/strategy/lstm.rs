@@ -531,21 +531,18 @@ pub struct BlobSpec<'s> {
 
 impl BlobSpec<'_> {
     /// The blob's size in bytes.
-    pub fn len(&self) -> usize {
+    pub fn byte_len(&self) -> usize {
         let shapes = [(4 * self.h1, N_IN + self.h1), (4 * self.h2, self.h1 + self.h2), (1, self.h2)];
         HEADER + 4 + shapes.iter().map(|(r, c)| match self.kind {
             WeightKind::F32 => 4 * r * c + 4 * r,
             WeightKind::I8 => r * c + 8 * r,
         }).sum::<usize>()
     }
-    pub fn is_empty(&self) -> bool {
-        false
-    }
 
-    /// Fills `out` (exactly [`BlobSpec::len`] bytes) with the blob; `false` if the size or shapes are wrong.
+    /// Fills `out` (exactly [`BlobSpec::byte_len`] bytes) with the blob; `false` if the size or shapes are wrong.
     pub fn write(&self, out: &mut [u8]) -> bool {
         let shapes = [(4 * self.h1, N_IN + self.h1), (4 * self.h2, self.h1 + self.h2), (1, self.h2)];
-        if out.len() != self.len() || shapes.iter().zip(&self.layers).any(|((r, c), (w, b))| w.len() != r * c || b.len() != *r) {
+        if out.len() != self.byte_len() || shapes.iter().zip(&self.layers).any(|((r, c), (w, b))| w.len() != r * c || b.len() != *r) {
             return false;
         }
         let mut o = 0;
