@@ -37,6 +37,26 @@ fn fail(msg: &str) -> ! {
     }
 }
 
+/// SysTick ticks spent on every epoch of every scenario, replayed with this configuration.
+fn epoch_costs<'t>(
+    input: &Input,
+    cfg: Config,
+    templates: TemplateSet<'t>,
+    predictor: &Predictor<'t>,
+    clock: &mut dyn FnMut() -> u32,
+) -> heapless::Vec<u32, MAX_EPOCHS> {
+    let mut costs = heapless::Vec::new();
+    for i in 0..input.scenarios() {
+        let mut cost = |c: u32| {
+            let _ = costs.push(c);
+        };
+        if replay::run(input, i, cfg, templates, predictor, clock, &mut cost).is_err() {
+            fail("replay failed");
+        }
+    }
+    costs
+}
+
 #[entry]
 fn main() -> ! {
     let Some(mut cp) = cortex_m::Peripherals::take() else { fail("peripherals taken twice") };
@@ -87,29 +107,13 @@ fn main() -> ! {
     // The cost of the paper's strategies alone: the same scenarios without the consistency detectors.
     let mut paper_cfg = cfg;
     paper_cfg.consistency.enabled = false;
-    let mut paper_costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
-    for i in 0..input.scenarios() {
-        let mut cost = |c: u32| {
-            let _ = paper_costs.push(c);
-        };
-        if replay::run(&input, i, paper_cfg, templates, &predictor, &mut clock, &mut cost).is_err() {
-            fail("replay failed");
-        }
-    }
+    let mut paper_costs = epoch_costs(&input, paper_cfg, templates, &predictor, &mut clock);
     report("instructions per epoch (paper strategies only)", &mut paper_costs);
     // Strategy 1's predictors alone: the same scenarios with the kinematic predictor, and the
     // LSTM's integer step by itself on the inputs of a cruising car.
     let kin = Predictor::Kinematic(KinematicPredictor::default());
     let kin_cfg = Config::for_predictor(&UBLOX_10HZ, &kin);
-    let mut kin_costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
-    for i in 0..input.scenarios() {
-        let mut cost = |c: u32| {
-            let _ = kin_costs.push(c);
-        };
-        if replay::run(&input, i, kin_cfg, templates, &kin, &mut clock, &mut cost).is_err() {
-            fail("replay failed");
-        }
-    }
+    let mut kin_costs = epoch_costs(&input, kin_cfg, templates, &kin, &mut clock);
     report("instructions per epoch (kinematic predictor)", &mut kin_costs);
     if let Predictor::Lstm(mut l) = predictor {
         let mut step_costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
