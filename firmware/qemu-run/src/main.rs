@@ -37,15 +37,17 @@ fn fail(msg: &str) -> ! {
     }
 }
 
-/// SysTick ticks spent on every epoch of every scenario, replayed with this configuration.
+/// SysTick ticks spent on every epoch of every scenario, replayed with this configuration,
+/// into `costs` (one buffer reused: the stack holds one 16 KiB vector, not one per run).
 fn epoch_costs<'t>(
     input: &Input,
     cfg: Config,
     templates: TemplateSet<'t>,
     predictor: &Predictor<'t>,
     clock: &mut dyn FnMut() -> u32,
-) -> heapless::Vec<u32, MAX_EPOCHS> {
-    let mut costs = heapless::Vec::new();
+    costs: &mut heapless::Vec<u32, MAX_EPOCHS>,
+) {
+    costs.clear();
     for i in 0..input.scenarios() {
         let mut cost = |c: u32| {
             let _ = costs.push(c);
@@ -54,7 +56,6 @@ fn epoch_costs<'t>(
             fail("replay failed");
         }
     }
-    costs
 }
 
 #[entry]
@@ -107,23 +108,23 @@ fn main() -> ! {
     // The cost of the paper's strategies alone: the same scenarios without the consistency detectors.
     let mut paper_cfg = cfg;
     paper_cfg.consistency.enabled = false;
-    let mut paper_costs = epoch_costs(&input, paper_cfg, templates, &predictor, &mut clock);
-    report("instructions per epoch (paper strategies only)", &mut paper_costs);
+    epoch_costs(&input, paper_cfg, templates, &predictor, &mut clock, &mut costs);
+    report("instructions per epoch (paper strategies only)", &mut costs);
     // Strategy 1's predictors alone: the same scenarios with the kinematic predictor, and the
     // LSTM's integer step by itself on the inputs of a cruising car.
     let kin = Predictor::Kinematic(KinematicPredictor::default());
     let kin_cfg = Config::for_predictor(&UBLOX_10HZ, &kin);
-    let mut kin_costs = epoch_costs(&input, kin_cfg, templates, &kin, &mut clock);
-    report("instructions per epoch (kinematic predictor)", &mut kin_costs);
+    epoch_costs(&input, kin_cfg, templates, &kin, &mut clock, &mut costs);
+    report("instructions per epoch (kinematic predictor)", &mut costs);
     if let Predictor::Lstm(mut l) = predictor {
-        let mut step_costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
+        costs.clear();
         for k in 0..64u32 {
             let x = [25.0 + (k % 7) as f32 * 0.1, 20.0, (k % 11) as f32 - 5.0, 25.0];
             let a = clock();
             core::hint::black_box(l.primary.step_raw(core::hint::black_box(x)));
-            let _ = step_costs.push(clock().wrapping_sub(a));
+            let _ = costs.push(clock().wrapping_sub(a));
         }
-        report("instructions per LSTM step (integer kernel)", &mut step_costs);
+        report("instructions per LSTM step (integer kernel)", &mut costs);
     }
     hprintln!("verdict digest: {:016x}", replay::combine(&digests));
     hprintln!("qemu-run: {}", if all { "PASS" } else { "FAIL" });
