@@ -3,7 +3,8 @@
 //! A strategy whose inputs are stale or missing is *degraded* at that epoch: it does not run,
 //! the verdict says so with a reason code, and it can never raise an alarm. A time discontinuity
 //! (time not increasing, or an epoch longer than [`ShiftConfig::max_dt_s`]) or an invalid sample
-//! resets every strategy's memory, so old state is never compared with new data.
+//! resets every strategy's memory, so old state is never compared with new data. What the
+//! consistency detectors learnt about the car itself (wheel-speed scale, gyro bias) is kept.
 //!
 //! The alarm latches: once any strategy fires, `alarm` stays true, with the first alarm's epoch,
 //! until [`Detector::clear_alarm`]. Per-epoch `fired` sets are kept separately, so which
@@ -13,7 +14,7 @@ use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 use crate::strategy::location_shift::{ShiftConfig, ShiftOutcome, ShiftPredictor};
 use crate::strategy::motion::{Disagreement, Motion, MotionConfig, MotionOutcome};
-use crate::strategy::consistency::{ConsistencyConfig, HeadingCheck, ResidualCusum, SpeedCheck};
+use crate::strategy::consistency::{ConsistencyConfig, HeadingCheck, ResidualCusum, SpeedCheck, HEADING_TOL_REL, WINDOW_S};
 use crate::strategy::turn::{TemplateSet, TurnConfig, TurnOutcome, TurnStrategy};
 use crate::strategy::{StrategyId, StrategySet};
 
@@ -53,13 +54,14 @@ impl Config {
                 enabled: true,
                 cusum_k_m: p.cusum_k_m,
                 cusum_h_m: p.cusum_h_m,
+                window_h_m: p.window_h_m,
                 scale_tau_s: 120.0,
                 warmup_s: 30.0,
                 speed_tol_mps: p.speed_tol_mps,
                 speed_tol_rel: 0.03,
-                persist_s: 2.0,
-                heading_window_s: 10.0,
+                window_s: WINDOW_S,
                 heading_tol_deg: p.heading_tol_deg,
+                heading_tol_rel: HEADING_TOL_REL,
                 min_speed_mps: 5.0,
             },
         }
@@ -72,6 +74,10 @@ impl Config {
         c
     }
 }
+
+/// The longest forward gap in the epochs across which the consistency detectors keep what they
+/// learnt about the car, seconds (tunnels, jamming; a longer gap is taken as another trip).
+pub const KEEP_LEARNT_GAP_S: f64 = 60.0;
 
 /// Why a verdict looks the way it does. A bit set; see [`Reasons`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -86,7 +92,7 @@ pub enum Reason {
     GnssStandingWheelsMoving = 3,
     /// S2: steering and GNSS disagree about a turn.
     TurnMismatch = 4,
-    /// Beyond the paper: the residual CUSUM crossed its threshold (a drift or biased shifts).
+    /// Beyond the paper: the residual CUSUM crossed its threshold (a slow bias over minutes).
     ResidualDrift = 5,
     /// Beyond the paper: GNSS speed and wheel speed disagree.
     SpeedMismatch = 6,
@@ -106,10 +112,13 @@ pub enum Reason {
     NoTurnInputs = 13,
     /// Degraded: S1 waits for the receiver to settle after start-up.
     GnssSettling = 14,
+    /// Beyond the paper: the residual summed over the window crossed its threshold (a drift or
+    /// biased shifts).
+    ResidualWindow = 15,
 }
 
 impl Reason {
-    pub const ALL: [Reason; 15] = [
+    pub const ALL: [Reason; 16] = [
         Reason::ShiftExceedsPrediction,
         Reason::ShiftBelowPrediction,
         Reason::GnssMovingWheelsStanding,
@@ -125,6 +134,7 @@ impl Reason {
         Reason::InvalidSample,
         Reason::NoTurnInputs,
         Reason::GnssSettling,
+        Reason::ResidualWindow,
     ];
     pub const fn name(self) -> &'static str {
         match self {
@@ -143,6 +153,7 @@ impl Reason {
             Reason::InvalidSample => "invalid_sample",
             Reason::NoTurnInputs => "no_turn_inputs",
             Reason::GnssSettling => "gnss_settling",
+            Reason::ResidualWindow => "residual_window",
         }
     }
 }
@@ -189,8 +200,10 @@ pub struct Verdict {
     pub motion: Option<MotionOutcome>,
     /// Strategy 2's judgement, at the epochs where a steering segment ended or GNSS turned.
     pub turn: Option<TurnOutcome>,
-    /// Beyond the paper: residual CUSUM statistic (m), speed difference (m/s), heading difference (deg).
+    /// Beyond the paper: residual CUSUM statistic (m), residual summed over the window (m),
+    /// mean speed difference (m/s) and heading difference (deg) over the window.
     pub cusum_m: Option<f32>,
+    pub residual_window_m: Option<f32>,
     pub speed_diff_mps: Option<f32>,
     pub heading_diff_deg: Option<f32>,
     /// Latched alarm.
@@ -250,15 +263,26 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         self.first_alarm = None;
     }
 
-    fn restart(&mut self) {
+    /// Restarts every strategy. With `keep_learnt` (a forward gap of at most
+    /// [`KEEP_LEARNT_GAP_S`]) the consistency detectors keep what they learnt about the car
+    /// (wheel-speed scale, gyro bias): a GNSS gap, which a spoofer can cause, must not reopen
+    /// their warm-up. After a longer gap (another trip), time going backwards or an invalid
+    /// sample they learn afresh.
+    fn restart(&mut self, keep_learnt: bool) {
         self.predictor.reset();
         self.motion.reset();
         if let Some(t) = self.turn.as_mut() {
             t.reset();
         }
-        self.cusum.reset();
-        self.speed.reset();
-        self.heading.reset();
+        if keep_learnt {
+            self.cusum.restart();
+            self.speed.restart();
+            self.heading.restart();
+        } else {
+            self.cusum.reset();
+            self.speed.reset();
+            self.heading.reset();
+        }
     }
 
     pub fn step(&mut self, s: &Sample) -> Verdict {
@@ -275,6 +299,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             motion: None,
             turn: None,
             cusum_m: None,
+            residual_window_m: None,
             speed_diff_mps: None,
             heading_diff_deg: None,
             alarm: false,
@@ -295,7 +320,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             }
         };
         if !s.t.is_finite() || !s.pos.is_valid() {
-            self.restart();
+            self.restart(false);
             self.prev_t = None;
             v.reasons.insert(Reason::InvalidSample);
             all_degraded(&mut v);
@@ -308,7 +333,8 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             None => true,
         };
         if !continuous {
-            self.restart();
+            let gap_s = self.prev_t.map_or(f64::INFINITY, |p| s.t - p);
+            self.restart(gap_s > 0.0 && gap_s <= KEEP_LEARNT_GAP_S);
             v.reasons.insert(Reason::TimeDiscontinuity);
         }
         self.prev_t = Some(s.t);
@@ -340,12 +366,19 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                 }
                 v.shift = Some(o);
                 if extra {
-                    let (stat, fired) = self.cusum.step(&self.cfg.consistency, shift, pred, s.dt_s);
+                    let wheel = s.wheel_speed().get().unwrap_or(0.0);
+                    let r = self.cusum.step(&self.cfg.consistency, shift, pred, s.dt_s, wheel);
                     v.ran.insert(StrategyId::ResidualCusum);
-                    v.cusum_m = Some(stat);
-                    if fired {
-                        v.fired.insert(StrategyId::ResidualCusum);
+                    v.cusum_m = Some(r.cusum_m);
+                    v.residual_window_m = r.window_m;
+                    if r.cusum_fired {
                         v.reasons.insert(Reason::ResidualDrift);
+                    }
+                    if r.window_fired {
+                        v.reasons.insert(Reason::ResidualWindow);
+                    }
+                    if r.cusum_fired || r.window_fired {
+                        v.fired.insert(StrategyId::ResidualCusum);
                     }
                 }
             }
@@ -406,10 +439,10 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         if extra {
             let c = self.cfg.consistency;
             match self.speed.step(&c, s) {
-                Some((d, fired)) => {
+                Some(o) => {
                     v.ran.insert(StrategyId::Speed);
-                    v.speed_diff_mps = Some(d);
-                    if fired {
+                    v.speed_diff_mps = Some(o.diff);
+                    if o.fired {
                         v.fired.insert(StrategyId::Speed);
                         v.reasons.insert(Reason::SpeedMismatch);
                     }
@@ -417,10 +450,10 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                 None => v.degraded.insert(StrategyId::Speed),
             }
             match self.heading.step(&c, s) {
-                Some((d, fired)) => {
+                Some(o) => {
                     v.ran.insert(StrategyId::Heading);
-                    v.heading_diff_deg = Some(d);
-                    if fired {
+                    v.heading_diff_deg = Some(o.diff);
+                    if o.fired {
                         v.fired.insert(StrategyId::Heading);
                         v.reasons.insert(Reason::HeadingMismatch);
                     }
