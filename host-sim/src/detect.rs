@@ -126,6 +126,12 @@ pub fn verdict_json(v: &Verdict) -> Value {
         o["turn"] = json!({"steering": t.steering.name(), "distance": t.distance, "gnss_change_deg": t.gnss_change_deg, "steering_change_deg": t.steering_change_deg,
             "mismatch": t.mismatch.map(|m| format!("{m:?}")), "derived_steering": t.derived, "start_t": t.start_t, "end_t": t.end_t});
     }
+    // Beyond the paper: the consistency detectors' statistics, where they ran.
+    for (key, x) in [("cusum_m", v.cusum_m), ("residual_window_m", v.residual_window_m), ("speed_diff_mps", v.speed_diff_mps), ("heading_diff_deg", v.heading_diff_deg)] {
+        if let Some(x) = x {
+            o[key] = json!(x);
+        }
+    }
     if let Some(f) = v.first_alarm {
         o["first_alarm"] = json!({"epoch": f.epoch, "t": f.t});
     }
