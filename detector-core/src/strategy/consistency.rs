@@ -7,21 +7,22 @@
 //! noise (GNSS position noise, timing offsets between loggers) averages out instead of piling up.
 //!
 //! - [`ResidualCusum`]: strategy 1's signed residual after removing the wheel-speed scale error
-//!   (tyre radius) that a slow estimate `ŝ = EMA(shift / prediction)` tracks (time constant
-//!   [`ConsistencyConfig::scale_tau_s`]; nothing is judged during the first
-//!   [`ConsistencyConfig::warmup_s`] after a restart, while the estimate settles). Two tests on it:
-//!   the sum over the window (fires above `window_h_m`: fast), and a two-sided CUSUM
-//!   `S+ = max(0, S+ + r - k)`, `S- = max(0, S- - r - k)` (fires above `cusum_h_m`: slow
-//!   biases over minutes). `k` and both thresholds per receiver profile are derived from the
-//!   residuals of the clean real drives (`host-sim calibrate`).
+//!   (tyre radius) that a slow estimate of `shift / prediction` tracks (time constant
+//!   [`ConsistencyConfig::scale_tau_s`]). Two tests on it: the sum over the window (fires above
+//!   `window_h_m`: fast), and a two-sided CUSUM `S+ = max(0, S+ + r - k)`,
+//!   `S- = max(0, S- - r - k)` (fires above `cusum_h_m`: slow biases over minutes). Only while
+//!   the wheels turn at >= `min_speed_mps`.
 //! - [`SpeedCheck`]: GNSS-reported speed against wheel speed (scaled by its own slow estimate);
 //!   fires when the mean difference over the window exceeds `speed_tol_mps + speed_tol_rel * v`.
-//! - [`HeadingCheck`]: GNSS course change against the yaw-rate integral over the window; fires
-//!   when they differ by more than `heading_tol_deg`. Runs only while the wheels say the car
-//!   moves at >= `min_speed_mps` and the receiver reports a speed at which its course means
-//!   something (the wheels, not GNSS, decide whether the car moves: the spoofer controls GNSS).
+//! - [`HeadingCheck`]: GNSS course change against the bias-corrected yaw-rate integral over the
+//!   window; fires when they differ by more than `heading_tol_deg + heading_tol_rel * the angle
+//!   turned`. The wheels, not GNSS, decide whether the car moves (the spoofer controls GNSS).
 //!
-//! Each is degraded (never alarms) without its inputs and restarts after a discontinuity.
+//! `k` and the thresholds per receiver profile are derived from the clean real drives (`host-sim
+//! calibrate`). The scale estimates and the gyro bias are properties of the car: they are learnt
+//! during the first [`ConsistencyConfig::warmup_s`] after power-up (nothing is judged before) and
+//! survive a `restart` (a short gap, a missing input); only a `reset` forgets them. Each detector
+//! is degraded (never alarms) without its inputs.
 
 use crate::sample::Sample;
 use heapless::Deque;
@@ -36,8 +37,8 @@ pub struct ConsistencyConfig {
     /// Threshold on the strategy-1 residual summed over the window, metres.
     pub window_h_m: f32,
     pub scale_tau_s: f32,
-    /// The residual tests and the speed check only learn their scale estimate for this long
-    /// after a (re)start, seconds.
+    /// Nothing is judged for this long after power-up while the scale estimates and the gyro
+    /// bias are learnt, seconds.
     pub warmup_s: f32,
     pub speed_tol_mps: f32,
     pub speed_tol_rel: f32,
@@ -245,7 +246,7 @@ impl SpeedCheck {
             self.window.reset();
             return Some(Check::default());
         }
-        if self.warm_s < c.warmup_s || dt <= 0.0 {
+        if self.warm_s < c.warmup_s || learn_dt(dt) == 0.0 {
             return Some(Check::default());
         }
         let Some((sum, _)) = self.window.push(dt, diff * dt, 0.0, c.window_s) else { return Some(Check::default()) };
@@ -314,7 +315,7 @@ impl HeadingCheck {
             self.restart();
             return None;
         };
-        if !(yaw.is_finite() && course.is_finite() && v.is_finite() && s.dt_s.is_finite() && s.dt_s > 0.0) {
+        if !(yaw.is_finite() && course.is_finite() && v.is_finite()) || learn_dt(s.dt_s) == 0.0 {
             self.restart();
             return None;
         }
