@@ -170,6 +170,12 @@ pub fn turn_starts(samples: &[Sample]) -> Vec<f64> {
 
 /// Applies `kind` at `onset_t` with parameters drawn from `seed`.
 pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Attacked {
+    apply_with(replay, kind, seed, onset_t, None)
+}
+
+/// [`apply`], with the slow drift's rate set to `drift_mps` instead of drawn (the other
+/// parameters are drawn from `seed` as always).
+pub fn apply_with(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64, drift_mps: Option<f64>) -> Attacked {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e55_5f61_7474_6163);
     let fixes: Vec<Fix> = replay.fixes().copied().collect();
     let k0 = fixes.iter().position(|f| f.t >= onset_t).unwrap_or(fixes.len());
@@ -247,7 +253,8 @@ pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Atta
             }
         }
         AttackKind::SlowDrift => {
-            let r: f64 = rng.random_range(0.05..1.0);
+            let drawn: f64 = rng.random_range(0.05..1.0);
+            let r = drift_mps.unwrap_or(drawn);
             let across = rng.random_bool(0.5);
             let b = heading_at(&fixes, k0) + if across { 90.0 } else { 0.0 };
             value = r;

@@ -211,6 +211,9 @@ pub struct Report {
     pub paper_strategies_only: Option<BTreeMap<&'static str, KindStats>>,
     /// The smallest slow-drift rate detected within 10 s, m/s.
     pub smallest_drift_detected_10s_mps: Option<f64>,
+    /// The slow-drift scenarios replayed at fixed rates (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_sweep: Option<Vec<DriftSweepPoint>>,
     /// Strategy 1's predictors side by side (filled by the command line).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub predictors: Option<BTreeMap<&'static str, PredictorStats>>,
@@ -442,9 +445,14 @@ pub fn plan(drives: &[Drive], o: &EvalOptions) -> Vec<(AttackKind, usize, f64, u
 }
 
 pub fn run_scenario(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usize, o: &EvalOptions) -> Scenario {
+    run_scenario_with(d, kind, onset, seed, idx, o, None)
+}
+
+/// [`run_scenario`] with the slow drift's rate forced (see [`attack::apply_with`]).
+pub fn run_scenario_with(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usize, o: &EvalOptions, drift_mps: Option<f64>) -> Scenario {
     let mut window = d.replay.clone();
     window.events.retain(|e| e.t() >= onset - PRE_ONSET_S && e.t() <= onset + WINDOW_S);
-    let a = attack::apply(&window, kind, seed, onset);
+    let a = attack::apply_with(&window, kind, seed, onset, drift_mps);
     let (samples, _) = replay::synchronize(&a.replay, o.sync);
     let v = detect::run_with(&samples, config_for(d, o), o.predictor);
     let first_attacked = v.iter().position(|x| x.t >= onset);
@@ -478,6 +486,42 @@ pub fn run_scenario(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usi
         true_track: a.true_track,
         perceived: a.perceived,
     }
+}
+
+/// Drift rates of the sweep, m/s: the range and beyond it, to find what is detected
+/// within 10 s.
+pub const DRIFT_SWEEP_MPS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 4.0, 8.0];
+
+/// One rate of the drift sweep: the planned slow-drift scenarios (same drives, onsets and
+/// directions) replayed at this rate.
+#[derive(Clone, Debug, Serialize)]
+pub struct DriftSweepPoint {
+    pub rate_mps: f64,
+    pub along_scenarios: usize,
+    pub along_within_10s: usize,
+    pub across_scenarios: usize,
+    pub across_within_10s: usize,
+}
+
+/// The slow-drift scenarios of the plan replayed at each rate of [`DRIFT_SWEEP_MPS`].
+pub fn drift_sweep(drives: &[Drive], o: &EvalOptions) -> Vec<DriftSweepPoint> {
+    let drifts: Vec<_> = plan(drives, o).into_iter().filter(|p| p.0 == AttackKind::SlowDrift).collect();
+    DRIFT_SWEEP_MPS
+        .iter()
+        .map(|&rate| {
+            let runs: Vec<(bool, bool)> = drifts
+                .par_iter()
+                .enumerate()
+                .map(|(n, &(k, i, t, s))| {
+                    let sc = run_scenario_with(&drives[i], k, t, s, n, o, Some(rate));
+                    (sc.params.contains("along"), sc.ttd_s.is_some_and(|x| x <= 10.0))
+                })
+                .collect();
+            let count = |along: bool| (runs.iter().filter(|r| r.0 == along).count(), runs.iter().filter(|r| r.0 == along && r.1).count());
+            let ((an, aw), (cn, cw)) = (count(true), count(false));
+            DriftSweepPoint { rate_mps: rate, along_scenarios: an, along_within_10s: aw, across_scenarios: cn, across_within_10s: cw }
+        })
+        .collect()
 }
 
 /// Runs the whole evaluation. `progress` is called once per finished unit of work.
@@ -578,6 +622,7 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
         turns: None,
         paper_strategies_only: None,
         smallest_drift_detected_10s_mps: smallest_drift,
+        drift_sweep: None,
         predictors: None,
         quantization: None,
     }

@@ -468,6 +468,8 @@ fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, p
         .collect();
     r.predictors = Some([PredictorKind::Kinematic, PredictorKind::Lstm].into_iter().map(|k| (k.name(), eval::predictor_stats(k, &drives, &runs[&k]))).collect());
     r.quantization = Some(eval::quantization(&drives, &runs[&PredictorKind::Lstm], &runs[&PredictorKind::LstmF32]));
+    // The slow drifts again at fixed rates: what is detected within 10 s.
+    r.drift_sweep = Some(eval::drift_sweep(&drives, &o));
     // Strategy 2's classifier on the held-out turns (real drives of this run + held-out simulated).
     let mut turn_drives = drives;
     turn_drives.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));

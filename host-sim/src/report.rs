@@ -101,6 +101,12 @@ pub fn stealthy_breakdown(r: &Report) -> String {
     for dir in ["along", "across"] {
         let _ = writeln!(s, "| {dir} the road | {} |", bins(AttackKind::SlowDrift, &drift, &|sc| sc.params.contains(dir)).join(" | "));
     }
+    if let Some(sweep) = &r.drift_sweep {
+        let _ = writeln!(s, "\nThe same slow-drift scenarios replayed at fixed rates, detected within 10 s:\n\n| rate | along the road | across the road |\n|---|---|---|");
+        for p in sweep {
+            let _ = writeln!(s, "| {} m/s | {}/{} | {}/{} |", p.rate_mps, p.along_within_10s, p.along_scenarios, p.across_within_10s, p.across_scenarios);
+        }
+    }
     let _ = writeln!(s, "\ndirection detected within 10 s, by rotation rate (deg/s):\n\n| 1-2 | 2-3 | 3-4 | 4-5 |\n|---|---|---|---|\n| {} |",
         bins(AttackKind::Direction, &[1.0, 2.0, 3.0, 4.0, 5.01], &|_| true).join(" | "));
     s

@@ -40,8 +40,19 @@ fn eval_writes_report_markdown_and_figures() {
     assert!(q["validation_epochs"].as_u64().unwrap() > 3000);
     assert!(q["ratio_to_threshold"].as_f64().unwrap() <= 0.02, "{q}");
     assert_eq!(q["verdicts_identical"], true, "{q}");
+    // The slow drifts replayed at fixed rates: every planned drift at every rate; fast drifts
+    // are found within 10 s where slow ones are not.
+    let sweep = r["drift_sweep"].as_array().unwrap();
+    assert_eq!(sweep.len(), 6);
+    let n = r["attacks"]["slow-drift"]["scenarios"].as_u64().unwrap();
+    let within = |p: &serde_json::Value| p["along_within_10s"].as_u64().unwrap() + p["across_within_10s"].as_u64().unwrap();
+    for p in sweep {
+        assert_eq!(p["along_scenarios"].as_u64().unwrap() + p["across_scenarios"].as_u64().unwrap(), n, "{p}");
+    }
+    assert!(within(&sweep[5]) > within(&sweep[0]), "{sweep:?}");
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("Table 3") && md.contains("| turn-by-turn |"));
+    assert!(md.contains("replayed at fixed rates") && md.contains("by source"));
     let figs: Vec<_> = std::fs::read_dir(out.join("figures")).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
     assert!(figs.iter().any(|f| f.ends_with("-residual.svg")) && figs.iter().any(|f| f.ends_with("-track.svg")));
     assert!(figs.iter().any(|f| f.ends_with("-residual.png")), "PNG figures (DejaVu font from fonts-dejavu-core)");
