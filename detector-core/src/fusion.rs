@@ -4,7 +4,8 @@
 //! the verdict says so with a reason code, and it can never raise an alarm. A time discontinuity
 //! (time not increasing, or an epoch longer than [`ShiftConfig::max_dt_s`]) or an invalid sample
 //! resets every strategy's memory, so old state is never compared with new data. What the
-//! consistency detectors learnt about the car itself (wheel-speed scale, gyro bias) is kept.
+//! consistency detectors learnt about the car itself (wheel-speed scale, gyro bias) is kept
+//! across a forward gap of up to [`KEEP_LEARNT_GAP_S`].
 //!
 //! The alarm latches: once any strategy fires, `alarm` stays true, with the first alarm's epoch,
 //! until [`Detector::clear_alarm`]. Per-epoch `fired` sets are kept separately, so which
