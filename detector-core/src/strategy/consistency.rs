@@ -126,7 +126,7 @@ impl MovingSum {
             .then(|| self.buf.iter().fold((0.0, 0.0), |(a, b), e| (a + e.1, b + e.2)))
     }
     /// The time the entries cover, seconds.
-    pub fn span(&self) -> f32 {
+    fn span(&self) -> f32 {
         self.buf.iter().map(|e| e.0).sum()
     }
 }
@@ -249,8 +249,8 @@ impl SpeedCheck {
         if self.warm_s < c.warmup_s || learn_dt(dt) == 0.0 {
             return Some(Check::default());
         }
-        let Some((sum, _)) = self.window.push(dt, diff * dt, 0.0, c.window_s) else { return Some(Check::default()) };
-        let span = self.window.span();
+        // The auxiliary sum is the time covered: the mean without a second pass over the window.
+        let Some((sum, span)) = self.window.push(dt, diff * dt, dt, c.window_s) else { return Some(Check::default()) };
         let mean = if span > 0.0 { sum / span } else { 0.0 };
         let allowance = c.speed_tol_rel * w.max(g);
         Some(Check { diff: mean, allowance, fired: libm::fabsf(mean) > c.speed_tol_mps + allowance })
@@ -333,13 +333,13 @@ impl HeadingCheck {
         }
         // The course means something at a reported speed, and the car moves by its wheels.
         let course_valid = s.gnss_speed.get().is_none_or(|g| g >= COURSE_MIN_SPEED_MPS);
-        let Some(course) = Some(course).filter(|_| v >= c.min_speed_mps && course_valid) else {
+        if v < c.min_speed_mps || !course_valid {
             if self.since_s > MAX_BRIDGE_S {
                 // Too long on the gyro alone: start over (the bias stays learnt).
                 self.restart();
             }
             return Some(Check::default());
-        };
+        }
         let (yaw_deg, turned_deg, since_s) = (self.yaw_deg, self.turned_deg, self.since_s);
         let prev = self.ref_course.replace(course);
         (self.yaw_deg, self.turned_deg, self.since_s) = (0.0, 0.0, 0.0);
