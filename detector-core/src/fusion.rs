@@ -16,7 +16,7 @@ use crate::sample::Sample;
 use crate::strategy::location_shift::{ShiftConfig, ShiftOutcome, ShiftPredictor};
 use crate::strategy::motion::{Disagreement, Motion, MotionConfig, MotionOutcome};
 use crate::strategy::consistency::{ConsistencyConfig, HeadingCheck, ResidualCusum, SpeedCheck, HEADING_TOL_REL, WINDOW_S};
-use crate::strategy::turn::{TemplateSet, TurnConfig, TurnOutcome, TurnStrategy};
+use crate::strategy::turn::{TemplateSet, TurnConfig, TurnOutcome, TurnStep, TurnStrategy};
 use crate::strategy::{StrategyId, StrategySet};
 
 /// All tuning of the detector, with documented defaults ([`Config::for_profile`]).
@@ -207,6 +207,9 @@ pub struct Verdict {
     pub residual_window_m: Option<f32>,
     pub speed_diff_mps: Option<f32>,
     pub heading_diff_deg: Option<f32>,
+    /// A strategy that ran is still in its start-up warm-up: strategy 1 waiting for the receiver
+    /// to settle, or a beyond-the-paper detector still learning the car (its scale, its gyro).
+    pub learning: bool,
     /// Latched alarm.
     pub alarm: bool,
     pub first_alarm: Option<FirstAlarm>,
@@ -303,6 +306,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             residual_window_m: None,
             speed_diff_mps: None,
             heading_diff_deg: None,
+            learning: false,
             alarm: false,
             first_alarm: self.first_alarm,
         };
@@ -419,9 +423,9 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         // Strategy 2.
         if let Some(ts) = self.turn.as_mut() {
             match ts.step(s) {
-                Some(o) => {
+                step @ (TurnStep::Ran | TurnStep::Judged(_)) => {
                     v.ran.insert(StrategyId::Turn);
-                    if let Some(o) = o {
+                    if let TurnStep::Judged(o) = step {
                         if o.mismatch.is_some() {
                             v.fired.insert(StrategyId::Turn);
                             v.reasons.insert(Reason::TurnMismatch);
@@ -429,7 +433,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                         v.turn = Some(o);
                     }
                 }
-                None => {
+                TurnStep::Degraded => {
                     v.degraded.insert(StrategyId::Turn);
                     v.reasons.insert(Reason::NoTurnInputs);
                 }
@@ -463,6 +467,11 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             }
         }
 
+        let c = &self.cfg.consistency;
+        v.learning = !self.settled
+            || (v.ran.contains(StrategyId::ResidualCusum) && self.cusum.warming(c))
+            || (v.ran.contains(StrategyId::Speed) && self.speed.warming(c))
+            || (v.ran.contains(StrategyId::Heading) && self.heading.warming(c));
         if !v.fired.is_empty() && self.first_alarm.is_none() {
             self.first_alarm = Some(FirstAlarm { epoch, t: s.t });
         }

@@ -123,14 +123,14 @@ impl Synchronizer {
     /// Feeds one vehicle-signal observation.
     pub fn push_obs(&mut self, sig: Signal, t: f64, v: f32, emit: &mut impl FnMut(&Sample)) {
         if !t.is_finite() || !v.is_finite() {
-            self.counters.obs_invalid += 1;
+            self.counters.obs_invalid = self.counters.obs_invalid.wrapping_add(1);
             return;
         }
         self.check_clock_reset(t, emit);
         let hist = &mut self.hist[sig.index()];
         if let Some(last) = hist.back_mut() {
             if t < last.t {
-                self.counters.obs_out_of_order += 1;
+                self.counters.obs_out_of_order = self.counters.obs_out_of_order.wrapping_add(1);
                 return;
             } else if t == last.t {
                 last.v = v; // repeated timestamp: the newest value wins
@@ -151,13 +151,13 @@ impl Synchronizer {
     /// Feeds one GNSS fix: a new epoch.
     pub fn push_fix(&mut self, fix: Fix, emit: &mut impl FnMut(&Sample)) {
         if !fix.t.is_finite() || !fix.pos.is_valid() {
-            self.counters.fixes_invalid += 1;
+            self.counters.fixes_invalid = self.counters.fixes_invalid.wrapping_add(1);
             return;
         }
         self.check_clock_reset(fix.t, emit);
         if let Some(last) = self.last_fix_t {
             if fix.t <= last {
-                self.counters.fixes_out_of_order += 1;
+                self.counters.fixes_out_of_order = self.counters.fixes_out_of_order.wrapping_add(1);
                 return;
             }
         }
@@ -201,7 +201,7 @@ impl Synchronizer {
     fn check_clock_reset(&mut self, t: f64, emit: &mut impl FnMut(&Sample)) {
         if self.clock.is_some_and(|c| t < c - self.cfg.reset_backjump_s) {
             self.reset(emit);
-            self.counters.resets += 1;
+            self.counters.resets = self.counters.resets.wrapping_add(1);
         }
     }
 
@@ -287,7 +287,7 @@ impl Synchronizer {
     fn force_front(&mut self, emit: &mut impl FnMut(&Sample)) {
         let Some(p) = self.pending.pop_front() else { return };
         if !p.ready() {
-            self.counters.overflow_emits += 1;
+            self.counters.overflow_emits = self.counters.overflow_emits.wrapping_add(1);
         }
         let mut signals = [Reading::Missing; Signal::COUNT];
         for (r, s) in signals.iter_mut().zip(p.slots.iter()) {

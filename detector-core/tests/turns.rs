@@ -119,3 +119,78 @@ fn no_steering_and_no_yaw_degrades_s2() {
     assert!(v.iter().all(|x| x.degraded.contains(StrategyId::Turn) && x.reasons.contains(Reason::NoTurnInputs) && !x.alarm));
     let _ = QUERY_LEN;
 }
+
+/// The issue-#14 drive: 10 Hz at 8 m/s, the wheel held between 20 and 60 deg (a few degrees of
+/// noise, so never "stuck") for `hold_s`, then turned past 60 deg for 7 s and straightened;
+/// GNSS follows the bicycle model. Before the fix, any hold over 16 s panicked (the segment
+/// reached back to the last quiet tick, up to 128 ticks, into an 80-tick buffer).
+fn bend_then_turn(hold_s: f64) -> Vec<Sample> {
+    let (dt, v) = (0.1f64, 8.0f32);
+    let mut out = Vec::new();
+    let mut p = LatLon::new(48.0, 11.0);
+    let mut heading = 0.0f64;
+    let mut prev: Option<LatLon> = None;
+    let mut seed = 7u32;
+    let mut noise = |a: f32| {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        a * ((seed >> 8) as f32 / (1 << 24) as f32 * 2.0 - 1.0)
+    };
+    let (bend_from, turn_from) = (30.0, 30.0 + hold_s);
+    for k in 0..((turn_from + 30.0) / dt) as usize {
+        let t = k as f64 * dt;
+        let steer = if t < bend_from {
+            noise(3.0)
+        } else if t < turn_from {
+            40.0 + noise(4.0)
+        } else if t < turn_from + 7.0 {
+            120.0 + noise(4.0)
+        } else {
+            noise(3.0)
+        };
+        let curvature = ((steer / 15.0) as f64).to_radians().tan() / 2.7;
+        let yaw = (v as f64 * curvature).to_degrees(); // + = left
+        heading = detector_core::geo::wrap_360(heading - yaw * dt);
+        p = destination(p, heading, v as f64 * dt, EARTH_RADIUS_PAPER_M);
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v);
+        signals[Signal::Steering.index()] = Reading::Valid(steer);
+        signals[Signal::YawRate.index()] = Reading::Valid(yaw as f32);
+        signals[Signal::Pedal.index()] = Reading::Valid(20.0);
+        out.push(Sample {
+            t,
+            dt_s: if prev.is_some() { dt as f32 } else { 0.0 },
+            pos: p,
+            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, p, EARTH_RADIUS_PAPER_M) as f32)),
+            gnss_speed: Reading::Valid(v),
+            gnss_course: Reading::Valid(heading as f32),
+            signals,
+        });
+        prev = Some(p);
+    }
+    out
+}
+
+#[test]
+fn a_wheel_held_in_a_long_bend_before_a_turn_does_not_panic() {
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    // 25 s is the reported case; the others straddle the old limit (16 s) and the ring (25.6 s).
+    for hold_s in [10.0, 15.9, 16.1, 25.0, 26.0, 60.0, 300.0] {
+        let mut ts = turn::TurnStrategy::new(turn::TurnConfig::default(), Some(set));
+        let mut judged = Vec::new();
+        for s in bend_then_turn(hold_s) {
+            if let turn::TurnStep::Judged(o) = ts.step(&s) {
+                judged.push(o);
+            }
+        }
+        // The turn is judged, its segment within the 16 s limit, and it does not mismatch: GNSS
+        // followed the wheel.
+        let o = judged.iter().find(|o| o.steering != TurnClass::None || o.gnss_change_deg.abs() > 60.0)
+            .unwrap_or_else(|| panic!("hold {hold_s} s: the turn was never judged: {judged:?}"));
+        assert!(o.end_t - o.start_t <= (turn::MAX_SEGMENT as f64) * 0.2, "hold {hold_s} s: {o:?}");
+        assert!(judged.iter().all(|o| o.mismatch.is_none()), "hold {hold_s} s: {judged:?}");
+        // And the whole detector on it: no panic, no alarm.
+        let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+        let v: Vec<_> = bend_then_turn(hold_s).iter().map(|s| d.step(s)).collect();
+        assert!(v.iter().all(|x| !x.fired.contains(StrategyId::Turn)), "hold {hold_s} s");
+    }
+}

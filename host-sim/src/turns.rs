@@ -56,7 +56,7 @@ pub fn collect(d: &Drive) -> Vec<Turn> {
     let mut ts = TurnStrategy::new(TurnConfig::default(), None);
     let mut out = Vec::new();
     for s in &d.samples {
-        if let Some(Some(o)) = ts.step(s) {
+        if let turn::TurnStep::Judged(o) = ts.step(s) {
             if o.mismatch == Some(turn::TurnMismatch::GnssTurnWheelStraight) {
                 continue;
             }

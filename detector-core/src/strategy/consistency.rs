@@ -173,6 +173,10 @@ impl ResidualCusum {
     pub fn restart(&mut self) {
         *self = ResidualCusum { scale: self.scale, warm_s: self.warm_s, ..ResidualCusum::default() };
     }
+    /// Still in the warm-up after power-up: nothing is judged yet.
+    pub fn warming(&self, c: &ConsistencyConfig) -> bool {
+        self.warm_s < c.warmup_s
+    }
     /// The scale-corrected residual the next [`ResidualCusum::step`] will accumulate.
     pub fn corrected(&self, gnss_shift_m: f32, predicted_m: f32) -> f32 {
         gnss_shift_m - self.scale.get() * predicted_m
@@ -224,6 +228,10 @@ impl SpeedCheck {
     /// After a gap or a bad sample: the window starts over, the learnt scale stays.
     pub fn restart(&mut self) {
         *self = SpeedCheck { scale: self.scale, warm_s: self.warm_s, ..SpeedCheck::default() };
+    }
+    /// Still in the warm-up after power-up: nothing is judged yet.
+    pub fn warming(&self, c: &ConsistencyConfig) -> bool {
+        self.warm_s < c.warmup_s
     }
     /// `None` without both speeds (degraded). Else the mean difference over the window, m/s.
     pub fn step(&mut self, c: &ConsistencyConfig, s: &Sample) -> Option<Check> {
@@ -307,6 +315,10 @@ impl HeadingCheck {
     /// bias stays.
     pub fn restart(&mut self) {
         *self = HeadingCheck { bias: self.bias, ..HeadingCheck::default() };
+    }
+    /// Still learning the gyro bias after power-up: nothing is judged yet.
+    pub fn warming(&self, c: &ConsistencyConfig) -> bool {
+        self.bias.age_s < c.warmup_s
     }
     /// `None` without yaw rate, course or wheel speed (degraded). Else the course change minus
     /// the yaw integral over the window, degrees.

@@ -6,8 +6,8 @@
 //! outcome says which was used.
 //!
 //! A *steering segment* starts when |steer| rises above `start_deg` (taken from the last 5 Hz
-//! tick below `settle_deg`) and ends when it settles below `settle_deg` again (or after
-//! [`MAX_SEGMENT`] ticks). The segment, resampled to [`QUERY_LEN`] points, is classified
+//! tick below `settle_deg`, but at most [`MAX_LEAD`] ticks before the rise) and ends when it
+//! settles below `settle_deg` again (or after [`MAX_SEGMENT`] ticks). The segment, resampled to [`QUERY_LEN`] points, is classified
 //! left / right / none by k-NN with exact banded DTW against templates learned from real drives
 //! ([`TemplateSet`], read in place from a CRC-checked blob in flash). Over the same ticks, the
 //! GNSS course change says left (< -`gnss_turn_deg`), right (> +`gnss_turn_deg`) or straight
@@ -37,6 +37,11 @@ pub static DEFAULT_TEMPLATES: &[u8] = include_bytes!("../../models/turn_template
 pub const QUERY_LEN: usize = 32;
 /// Longest segment, 5 Hz ticks (16 s).
 pub const MAX_SEGMENT: usize = 80;
+/// The most ticks a segment reaches back before |steer| rose above `start_deg` (8 s). The wheel
+/// can rest between `settle_deg` and `start_deg` for minutes (a long bend, a loop ramp, waiting
+/// at a light with the wheel pre-turned); the segment keeps the last 8 s of that, so the turn
+/// itself always has at least as many ticks before [`MAX_SEGMENT`] ends it.
+pub const MAX_LEAD: usize = MAX_SEGMENT / 2;
 const RING: usize = 128;
 const TICK_S: f64 = 0.2;
 /// The heading check also wants the wheel straight this long before its window, seconds.
@@ -155,7 +160,7 @@ impl<'a> TemplateSet<'a> {
         let set = TemplateSet { bytes, count, band };
         for i in 0..count {
             let r = set.record(i);
-            if TurnClass::from_u8(r[0]).is_none() || Provenance::from_u8(r[1]).is_none() {
+            if r.first().copied().and_then(TurnClass::from_u8).is_none() || r.get(1).copied().and_then(Provenance::from_u8).is_none() {
                 return Err(BlobError::BadRecord);
             }
         }
@@ -172,19 +177,22 @@ impl<'a> TemplateSet<'a> {
         self.band
     }
 
+    /// Template `i`'s bytes (empty past the end: `parse` checked the length).
     fn record(&self, i: usize) -> &'a [u8] {
         let rec = 2 + 2 * QUERY_LEN;
-        &self.bytes[HEADER + i * rec..HEADER + (i + 1) * rec]
+        self.bytes.get(HEADER + i * rec..HEADER + (i + 1) * rec).unwrap_or(&[])
     }
 
     /// Template `i`: class, provenance, and its series in degrees.
     pub fn get(&self, i: usize) -> (TurnClass, Provenance, [f32; QUERY_LEN]) {
         let r = self.record(i);
         let mut v = [0.0f32; QUERY_LEN];
-        for (k, x) in v.iter_mut().enumerate() {
-            *x = i16::from_le_bytes([r[2 + 2 * k], r[3 + 2 * k]]) as f32 * 0.1;
+        for (x, b) in v.iter_mut().zip(r.get(2..).unwrap_or(&[]).chunks_exact(2)) {
+            *x = i16::from_le_bytes([b.first().copied().unwrap_or(0), b.get(1).copied().unwrap_or(0)]) as f32 * 0.1;
         }
-        (TurnClass::from_u8(r[0]).unwrap_or(TurnClass::None), Provenance::from_u8(r[1]).unwrap_or(Provenance::Measured), v)
+        let class = r.first().copied().and_then(TurnClass::from_u8).unwrap_or(TurnClass::None);
+        let provenance = r.get(1).copied().and_then(Provenance::from_u8).unwrap_or(Provenance::Measured);
+        (class, provenance, v)
     }
 
     /// Writes a blob (host tools use this; no allocation: into `out`, returns the length).
@@ -234,15 +242,24 @@ fn vote(top: &[(f32, usize, TurnClass)]) -> Option<Neighbour> {
     Some(Neighbour { class: t.2, distance: t.0, index: t.1 })
 }
 
+/// Inserts a neighbour into `top` (sorted by distance, at most `k`), after the equal ones.
 fn insert(top: &mut heapless::Vec<(f32, usize, TurnClass), MAX_K>, k: usize, d: f32, i: usize, c: TurnClass) {
-    if top.len() == k && top.last().is_some_and(|l| d >= l.0) {
+    if top.len() >= k && top.last().is_some_and(|l| d >= l.0) {
         return;
     }
-    let pos = top.iter().position(|t| d < t.0).unwrap_or(top.len());
-    if top.len() == k {
+    if top.len() >= k {
         top.pop();
     }
-    let _ = top.insert(pos, (d, i, c));
+    // Walk to the first strictly greater entry, then shift the rest by one.
+    let mut item = (d, i, c);
+    let mut placed = false;
+    for slot in top.iter_mut() {
+        if placed || item.0 < slot.0 {
+            core::mem::swap(slot, &mut item);
+            placed = true;
+        }
+    }
+    let _ = top.push(item);
 }
 
 /// k-NN with pruning (LB_Keogh on the query's envelope, early-abandoning DTW).
@@ -254,7 +271,10 @@ pub fn classify(set: &TemplateSet, q: &[f32; QUERY_LEN], k: usize) -> Option<Nei
     let mut top: heapless::Vec<(f32, usize, TurnClass), MAX_K> = heapless::Vec::new();
     for i in 0..set.len() {
         let (c, _, t) = set.get(i);
-        let bound = if top.len() == k { top[top.len() - 1].0 } else { f32::INFINITY };
+        let bound = match top.last() {
+            Some(l) if top.len() == k => l.0,
+            _ => f32::INFINITY,
+        };
         if lb_keogh(&t, &u, &l, bound) > bound {
             continue;
         }
@@ -378,6 +398,17 @@ pub struct TurnOutcome {
     pub end_t: f64,
 }
 
+/// What strategy 2 did at one epoch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TurnStep {
+    /// Steering (or its yaw-rate proxy), time or position missing: not run.
+    Degraded,
+    /// Ran; nothing to judge at this epoch.
+    Ran,
+    /// A steering segment ended, or GNSS turned with the wheel straight: the judgement.
+    Judged(TurnOutcome),
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Tick {
     t: f64,
@@ -455,22 +486,22 @@ impl<'a> TurnStrategy<'a> {
         }
     }
 
-    /// One epoch. `None`: inputs missing (degraded). `Some(None)`: ran, nothing to judge.
-    pub fn step(&mut self, s: &Sample) -> Option<Option<TurnOutcome>> {
+    /// One epoch.
+    pub fn step(&mut self, s: &Sample) -> TurnStep {
         let Some((steer, derived)) = self.steer_of(s) else {
             self.reset();
-            return None;
+            return TurnStep::Degraded;
         };
         if !s.t.is_finite() || !s.pos.is_valid() {
             self.reset();
-            return None;
+            return TurnStep::Degraded;
         }
         if !derived && self.steering_stuck(steer, s) {
             // Degraded, not reset: no segment or straight-wheel window may span a stuck sensor.
             self.seg_start = None;
             self.quiet = None;
             self.last = None;
-            return None;
+            return TurnStep::Degraded;
         }
         // Heading: reported course when moving, else the bearing over >= 3 m of track.
         let moving = s.gnss_speed.get().is_none_or(|v| v >= self.cfg.min_speed_mps);
@@ -487,7 +518,7 @@ impl<'a> TurnStrategy<'a> {
         let Some(heading) = self.heading else {
             // No heading yet: start over at the next sample.
             self.last = None;
-            return Some(None);
+            return TurnStep::Ran;
         };
         let shift = s.shift_m.get().filter(|d| d.is_finite() && *d < 1e4).unwrap_or(0.0);
         let speed = s.wheel_speed().get().or(s.gnss_speed.get()).filter(|v| v.is_finite()).unwrap_or(f32::NAN);
@@ -535,7 +566,7 @@ impl<'a> TurnStrategy<'a> {
             }
         }
         self.last = Some((s.t, steer, s.pos, heading, speed));
-        Some(out)
+        out.map_or(TurnStep::Ran, TurnStep::Judged)
     }
 
     fn on_tick(&mut self, tick: Tick, derived: bool) -> Option<TurnOutcome> {
@@ -545,7 +576,7 @@ impl<'a> TurnStrategy<'a> {
             self.quiet = self.quiet.and_then(|i| i.checked_sub(1));
         }
         let _ = self.ring.push_back(tick);
-        self.ticks += 1;
+        self.ticks = self.ticks.wrapping_add(1);
         let idx = self.ring.len() - 1;
         let a = libm::fabsf(tick.steer);
         let c = self.cfg;
@@ -567,7 +598,8 @@ impl<'a> TurnStrategy<'a> {
                 if a < c.settle_deg {
                     self.quiet = Some(idx);
                 } else if a > c.start_deg {
-                    self.seg_start = Some(self.quiet.unwrap_or(idx));
+                    let earliest = idx.saturating_sub(MAX_LEAD);
+                    self.seg_start = Some(self.quiet.map_or(idx, |q| q.max(earliest)));
                 }
                 if self.seg_start.is_none() {
                     return self.gnss_only_check(derived);
@@ -575,7 +607,7 @@ impl<'a> TurnStrategy<'a> {
                 None
             }
             Some(st) => {
-                let len = idx + 1 - st;
+                let len = (idx + 1).saturating_sub(st);
                 if a < c.settle_deg || len >= MAX_SEGMENT {
                     self.seg_start = None;
                     self.quiet = Some(idx);
@@ -591,7 +623,7 @@ impl<'a> TurnStrategy<'a> {
     fn course_change(&self, from: usize, to: usize) -> f32 {
         let mut net = 0.0f32;
         let mut prev: Option<f32> = None;
-        for t in self.ring.iter().skip(from).take(to + 1 - from) {
+        for t in self.ring.iter().skip(from).take((to + 1).saturating_sub(from)) {
             if let Some(p) = prev {
                 net += angle_diff_deg(p as f64, t.heading as f64) as f32;
             }
@@ -601,13 +633,16 @@ impl<'a> TurnStrategy<'a> {
     }
 
     fn judge(&mut self, st: usize, end: usize, derived: bool) -> Option<TurnOutcome> {
+        // The segment's ticks, at most MAX_SEGMENT of them: the buffer bounds the copy, never an index.
         let mut raw = [0.0f32; MAX_SEGMENT];
-        let n = end + 1 - st;
-        for (k, t) in self.ring.iter().skip(st).take(n).enumerate() {
-            raw[k] = t.steer;
+        let n = (end + 1).saturating_sub(st).min(MAX_SEGMENT);
+        let mut filled = 0;
+        for (r, t) in raw.iter_mut().zip(self.ring.iter().skip(st).take(n)) {
+            *r = t.steer;
+            filled += 1;
         }
         let mut q = [0.0f32; QUERY_LEN];
-        resample(&raw[..n], &mut q);
+        resample(raw.get(..filled).unwrap_or(&[]), &mut q);
         let change = self.course_change(st, end);
         let first = self.ring.iter().nth(st)?;
         let last = self.ring.iter().nth(end)?;
