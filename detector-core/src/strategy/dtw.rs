@@ -31,23 +31,32 @@ pub fn dtw_reference(a: &[f32], b: &[f32], band: usize) -> f32 {
 /// Banded DTW with two rolling rows; abandons and returns `INFINITY` as soon as every cell of a
 /// row exceeds `best` (squared), since path costs only grow.
 pub fn dtw_pruned(a: &[f32], b: &[f32], band: usize, best: f32) -> f32 {
-    let (n, m) = (a.len().min(MAX_LEN), b.len().min(MAX_LEN));
-    if n == 0 || m == 0 {
+    let a = a.get(..MAX_LEN).unwrap_or(a);
+    let b = b.get(..MAX_LEN).unwrap_or(b);
+    let m = b.len();
+    if a.is_empty() || m == 0 {
         return f32::INFINITY;
     }
     let best2 = if best.is_finite() { best * best } else { f32::INFINITY };
     let mut prev = [f32::INFINITY; MAX_LEN + 1];
     let mut cur = [f32::INFINITY; MAX_LEN + 1];
     prev[0] = 0.0;
-    for i in 1..=n {
+    for (i0, &ai) in a.iter().enumerate() {
+        let i = i0 + 1;
         cur.iter_mut().for_each(|x| *x = f32::INFINITY);
         let lo = i.saturating_sub(band).max(1);
         let hi = (i + band).min(m);
         let mut row_min = f32::INFINITY;
         for j in lo..=hi {
-            let c = (a[i - 1] - b[j - 1]) * (a[i - 1] - b[j - 1]);
-            let v = c + prev[j].min(cur[j - 1]).min(prev[j - 1]);
-            cur[j] = v;
+            // Every index is in range (j <= m <= MAX_LEN); `get` lets the compiler see it.
+            let (Some(&bj), Some(&up), Some(&diag), Some(&left)) = (b.get(j - 1), prev.get(j), prev.get(j - 1), cur.get(j - 1)) else {
+                break;
+            };
+            let c = (ai - bj) * (ai - bj);
+            let v = c + up.min(left).min(diag);
+            if let Some(x) = cur.get_mut(j) {
+                *x = v;
+            }
             row_min = row_min.min(v);
         }
         if row_min > best2 {
@@ -55,7 +64,7 @@ pub fn dtw_pruned(a: &[f32], b: &[f32], band: usize, best: f32) -> f32 {
         }
         core::mem::swap(&mut prev, &mut cur);
     }
-    libm::sqrtf(prev[m])
+    libm::sqrtf(prev.get(m).copied().unwrap_or(f32::INFINITY))
 }
 
 /// LB_Keogh: a lower bound of banded DTW between `q` and the series whose band envelope is
@@ -80,7 +89,7 @@ pub fn envelope(t: &[f32], band: usize, upper: &mut [f32], lower: &mut [f32]) {
         let lo = i.saturating_sub(band);
         let hi = (i + band).min(n - 1);
         let (mut u, mut l) = (f32::NEG_INFINITY, f32::INFINITY);
-        for &x in &t[lo..=hi] {
+        for &x in t.get(lo..=hi).unwrap_or(&[]) {
             u = u.max(x);
             l = l.min(x);
         }

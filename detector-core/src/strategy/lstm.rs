@@ -110,11 +110,13 @@ pub struct LstmModel<'a> {
     layers: [Layer; 3],
 }
 
+// Byte readers: out of range reads as 0 (`parse` checks every length first, so inside a
+// validated blob they never are; this keeps the kernels free of panic paths).
 fn u16_at(b: &[u8], o: usize) -> u16 {
-    u16::from_le_bytes([b[o], b[o + 1]])
+    b.get(o..o.wrapping_add(2)).and_then(|x| x.try_into().ok()).map_or(0, u16::from_le_bytes)
 }
 fn u32_at(b: &[u8], o: usize) -> u32 {
-    u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+    b.get(o..o.wrapping_add(4)).and_then(|x| x.try_into().ok()).map_or(0, u32::from_le_bytes)
 }
 fn f32_at(b: &[u8], o: usize) -> f32 {
     f32::from_bits(u32_at(b, o))
@@ -205,7 +207,7 @@ impl<'a> LstmModel<'a> {
         match self.kind {
             WeightKind::F32 => f32_at(self.bytes, l.w + 4 * (r * l.cols + c)),
             WeightKind::I8 => {
-                self.bytes[l.w + r * l.cols + c] as i8 as f32 * (i32_at(self.bytes, l.mult + 4 * r) as f32 / (1u32 << MULT_SHIFT) as f32)
+                self.bytes.get(l.w + r * l.cols + c).map_or(0.0, |&w| w as i8 as f32) * (i32_at(self.bytes, l.mult + 4 * r) as f32 / (1u32 << MULT_SHIFT) as f32)
             }
         }
     }
@@ -415,7 +417,7 @@ fn dot(w: &[u8], v: &[i16]) -> i32 {
 
 /// One row's pre-activation in Q4.12: `(sum w * v) * mult / 2^24 + bias`.
 fn row_q12(m: &LstmModel, l: &Layer, r: usize, x: &[i16], h: &[i16]) -> i32 {
-    let w = &m.bytes[l.w + r * l.cols..l.w + (r + 1) * l.cols];
+    let w = m.bytes.get(l.w + r * l.cols..l.w + (r + 1) * l.cols).unwrap_or(&[]);
     // |w| <= 128, |v| <= 32768, cols <= 192: |acc| < 2^30, no overflow.
     let (wx, wh) = w.split_at(x.len().min(w.len()));
     let acc = dot(wx, x) + dot(wh, h);
@@ -426,17 +428,22 @@ fn row_q12(m: &LstmModel, l: &Layer, r: usize, x: &[i16], h: &[i16]) -> i32 {
 
 fn int_layer(m: &LstmModel, l: &Layer, x: &[i16], h: &mut [i16], c: &mut [i16], gates: &mut [i32]) {
     let n = h.len();
-    for (r, g) in gates[..l.rows].iter_mut().enumerate() {
+    let Some(gates) = gates.get_mut(..4 * n) else { return };
+    for (r, g) in gates.iter_mut().enumerate() {
         *g = row_q12(m, l, r, x, h);
     }
-    for k in 0..n {
-        let i = sigmoid_q12(gates[k]);
-        let f = sigmoid_q12(gates[n + k]);
-        let g = tanh_q12(gates[2 * n + k]);
-        let o = sigmoid_q12(gates[3 * n + k]);
-        let cn = sat16((f * c[k] as i32 + i * g + 2048) >> 12);
-        c[k] = cn;
-        h[k] = sat16((o * tanh_q12(cn as i32) + 2048) >> 12);
+    // The gates in the order input, forget, cell, output.
+    let (Some(gi), Some(gf), Some(gg), Some(go)) = (gates.get(..n), gates.get(n..2 * n), gates.get(2 * n..3 * n), gates.get(3 * n..4 * n)) else {
+        return;
+    };
+    for ((((ck, hk), &xi), &xf), (&xg, &xo)) in c.iter_mut().zip(h.iter_mut()).zip(gi).zip(gf).zip(gg.iter().zip(go)) {
+        let i = sigmoid_q12(xi);
+        let f = sigmoid_q12(xf);
+        let g = tanh_q12(xg);
+        let o = sigmoid_q12(xo);
+        let cn = sat16((f * *ck as i32 + i * g + 2048) >> 12);
+        *ck = cn;
+        *hk = sat16((o * tanh_q12(cn as i32) + 2048) >> 12);
     }
 }
 
@@ -453,10 +460,12 @@ impl LstmKernel for IntKernel {
             *q = sat16(libm::roundf(v.clamp(-7.9, 7.9) * Q as f32) as i32);
         }
         let [l1, l2, d] = m.layers;
-        int_layer(m, &l1, &xq, &mut self.h1[..m.h1], &mut self.c1[..m.h1], &mut self.gates);
-        let x2 = self.h1;
-        int_layer(m, &l2, &x2[..m.h1], &mut self.h2[..m.h2], &mut self.c2[..m.h2], &mut self.gates);
-        row_q12(m, &d, 0, &[], &self.h2[..m.h2]) as f32 / Q as f32
+        let (Some(h1), Some(c1), Some(h2), Some(c2)) = (self.h1.get_mut(..m.h1), self.c1.get_mut(..m.h1), self.h2.get_mut(..m.h2), self.c2.get_mut(..m.h2)) else {
+            return f32::NAN;
+        };
+        int_layer(m, &l1, &xq, h1, c1, &mut self.gates);
+        int_layer(m, &l2, h1, h2, c2, &mut self.gates);
+        row_q12(m, &d, 0, &[], h2) as f32 / Q as f32
     }
 }
 

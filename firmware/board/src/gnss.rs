@@ -1,18 +1,19 @@
-//! GNSS receiver input: NMEA 0183 sentences to fixes, with the `nmea` crate.
+//! GNSS receiver input: NMEA 0183 sentences ([`crate::nmea`]) to receiver fixes.
 //!
 //! A fix is made from each valid RMC (position, speed over ground, course). GGA with fix quality
-//! 0 invalidates the position until the next valid GGA; VTG supplies speed and course when the
-//! RMC lacks them. Sentences are validated (checksum, ASCII, length) by the parser; a bad one is
-//! counted and dropped, never a panic.
+//! 0 invalidates the position until the next GGA with a fix; VTG supplies speed and course when
+//! the RMC lacks them. A sentence that does not parse (checksum, syntax, length) is counted and
+//! dropped, never a panic.
 
+use crate::nmea::{self, NmeaError, Sentence};
 use detector_core::geo::LatLon;
 use detector_core::sample::Fix;
 
 const KNOTS_TO_MPS: f32 = 0.514_444;
 
-/// Longest sentence accepted (NMEA says 82 characters; some receivers send a little more).
-pub const MAX_SENTENCE: usize = 128;
+pub use crate::nmea::MAX_SENTENCE;
 
+/// Sentences and fixes wrap at `u32::MAX`; the error counters saturate there.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct GnssCounters {
     pub sentences: u32,
@@ -32,44 +33,34 @@ pub struct NmeaFixer {
 impl NmeaFixer {
     /// One sentence (without line ending) received at time `t`. Returns a fix for a valid RMC.
     pub fn line(&mut self, t: f64, line: &[u8]) -> Option<Fix> {
-        self.counters.sentences += 1;
-        if line.len() > MAX_SENTENCE {
-            self.counters.overlong += 1;
-            return None;
-        }
-        let Ok(s) = core::str::from_utf8(line) else {
-            self.counters.rejected += 1;
-            return None;
-        };
-        match nmea::parse_str(s.trim()) {
-            Ok(nmea::ParseResult::RMC(r)) => {
-                let ok = r.status_of_fix != nmea::sentences::rmc::RmcStatusOfFix::Invalid && !self.gga_no_fix;
-                let (Some(lat), Some(lon), true) = (r.lat, r.lon, ok) else { return None };
+        self.counters.sentences = self.counters.sentences.wrapping_add(1);
+        match nmea::parse(line) {
+            Ok(Sentence::Rmc(r)) => {
+                let (Some(lat), Some(lon), true) = (r.lat_deg, r.lon_deg, r.valid && !self.gga_no_fix) else { return None };
                 let pos = LatLon::new(lat, lon);
                 if !pos.is_valid() {
-                    self.counters.rejected += 1;
+                    self.counters.rejected = self.counters.rejected.saturating_add(1);
                     return None;
                 }
                 let (vs, vc) = self.vtg.take().unwrap_or((None, None));
-                self.counters.fixes += 1;
-                Some(Fix {
-                    t,
-                    pos,
-                    speed_mps: r.speed_over_ground.map(|k| k * KNOTS_TO_MPS).or(vs),
-                    course_deg: r.true_course.or(vc),
-                })
+                self.counters.fixes = self.counters.fixes.wrapping_add(1);
+                Some(Fix { t, pos, speed_mps: r.speed_knots.map(|k| k * KNOTS_TO_MPS).or(vs), course_deg: r.course_deg.or(vc) })
             }
-            Ok(nmea::ParseResult::GGA(g)) => {
-                self.gga_no_fix = matches!(g.fix_type, Some(nmea::sentences::FixType::Invalid) | None);
+            Ok(Sentence::Gga(g)) => {
+                self.gga_no_fix = g.quality == 0;
                 None
             }
-            Ok(nmea::ParseResult::VTG(v)) => {
-                self.vtg = Some((v.speed_over_ground.map(|k| k * KNOTS_TO_MPS), v.true_course));
+            Ok(Sentence::Vtg(v)) => {
+                self.vtg = Some((v.speed_knots.map(|k| k * KNOTS_TO_MPS), v.course_deg));
                 None
             }
-            Ok(_) => None,
+            Ok(Sentence::Gst(_) | Sentence::Other) => None,
+            Err(NmeaError::TooLong) => {
+                self.counters.overlong = self.counters.overlong.saturating_add(1);
+                None
+            }
             Err(_) => {
-                self.counters.rejected += 1;
+                self.counters.rejected = self.counters.rejected.saturating_add(1);
                 None
             }
         }
@@ -100,7 +91,7 @@ impl LineSplitter {
                 b'$' => {
                     // A new sentence always starts here (recovers from a lost line end).
                     if !self.buf.is_empty() {
-                        self.dropped += 1;
+                        self.dropped = self.dropped.saturating_add(1);
                     }
                     self.buf.clear();
                     self.overflow = false;
@@ -109,7 +100,7 @@ impl LineSplitter {
                 _ => {
                     if self.buf.push(b).is_err() && !self.overflow {
                         self.overflow = true;
-                        self.dropped += 1;
+                        self.dropped = self.dropped.saturating_add(1);
                     }
                 }
             }
@@ -119,7 +110,7 @@ impl LineSplitter {
     /// After a UART overrun or framing error: the partial line is unusable.
     pub fn discard_partial(&mut self) {
         if !self.buf.is_empty() {
-            self.dropped += 1;
+            self.dropped = self.dropped.saturating_add(1);
         }
         self.buf.clear();
         self.overflow = false;

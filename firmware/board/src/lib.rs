@@ -2,14 +2,18 @@
 //! QEMU image and `host-sim digest`:
 //!
 //! - [`can`]: CAN frame decoding generated at build time from the vehicle profile's DBC;
-//! - [`gnss`]: NMEA sentences (RMC, GGA, VTG via the `nmea` crate) to receiver fixes;
+//! - [`nmea`]: the NMEA 0183 wire format (RMC, GGA, VTG, GST), panic-free;
+//! - [`gnss`]: NMEA sentences to receiver fixes, and the UART line splitter;
 //! - [`pipeline`]: frames and sentences -> `detector_core` synchroniser -> detector -> verdicts,
 //!   with a digest of the verdict stream;
+//! - [`health`]: the status frames, the watchdog gate and the alarm outbox;
 //! - [`replay`]: the compact replay input format and the scenario runner.
 #![no_std]
 #![forbid(unsafe_code)]
 
 pub mod can;
 pub mod gnss;
+pub mod health;
+pub mod nmea;
 pub mod pipeline;
 pub mod replay;
