@@ -4,6 +4,11 @@ fn main() {
     let out = std::path::PathBuf::from(std::env::var("OUT_DIR").unwrap());
     let data = host_sim::input::data_dir();
     println!("cargo:rerun-if-env-changed=GNSS_DATA_DIR");
+    println!("cargo:rerun-if-env-changed=CI");
+    let seg = data.join("raw/comma2k19_rav4_seg40/processed_log");
+    if std::env::var("CI").is_ok_and(|v| v == "true") && !seg.is_dir() {
+        panic!("CI=true: the QEMU run must replay the real comma2k19 segment, but {} is missing", seg.display());
+    }
     println!("cargo:rerun-if-changed={}", data.display());
     let (bytes, desc) = host_sim::qemu_input::generate(&data).unwrap_or_else(|e| panic!("generating the QEMU input: {e}"));
     std::fs::write(out.join("input.bin"), &bytes).unwrap();

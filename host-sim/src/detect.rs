@@ -198,3 +198,73 @@ pub fn summarize(verdicts: &[Verdict], profile: &ReceiverProfile) -> Summary {
         first_alarm_epoch: first.map(|f| f.epoch),
     }
 }
+
+/// The device's status, as the firmware sends it once a second (`GNSS_GUARD_STATUS`), for a
+/// replayed drive: the board's own [`Health`](gnss_guard_board::health::Health) fed with the
+/// epochs (each epoch is a fix), then its frames decoded through the DBC's fields. On a replay
+/// nothing is dropped on a bus, so the CAN counters stay 0. One line per second of drive time,
+/// through GNSS gaps too (where the device says `blind`), as `(t, json)`.
+pub fn status_lines(verdicts: &[Verdict]) -> Vec<(f64, Value)> {
+    use gnss_guard_board::health::{decode_status, Health, StatusPage, STATUS_PERIOD_S};
+    let mut h = Health::default();
+    let mut out = Vec::new();
+    let emit = |h: &mut Health, t: f64, out: &mut Vec<(f64, Value)>| {
+        let Some(frames) = h.status_due(t) else { return };
+        let mut o = json!({ "t": t });
+        for (id, d) in frames {
+            match decode_status(id, &d) {
+                Some(StatusPage::Page0 { state, ran, degraded, fix_age_s, epochs }) => {
+                    o["state"] = json!(state.map_or("unknown", |s| s.name()));
+                    o["ran"] = json!(names(detector_core::strategy::StrategySet(ran)));
+                    o["degraded"] = json!(names(detector_core::strategy::StrategySet(degraded)));
+                    o["fix_age_s"] = json!(fix_age_s);
+                    o["epochs"] = json!(epochs);
+                }
+                Some(StatusPage::Page1 { can_dropped, can_overruns, nmea_errors, restarts }) => {
+                    o["can_dropped"] = json!(can_dropped);
+                    o["can_overruns"] = json!(can_overruns);
+                    o["nmea_errors"] = json!(nmea_errors);
+                    o["restarts"] = json!(restarts);
+                }
+                Some(StatusPage::Page2 { faults, reset_cause, alarm_retries, detector_restarts }) => {
+                    o["faults"] = json!(faults);
+                    o["reset_cause"] = json!(reset_cause);
+                    o["alarm_retries"] = json!(alarm_retries);
+                    o["detector_restarts"] = json!(detector_restarts);
+                }
+                None => {}
+            }
+        }
+        out.push((t, o));
+    };
+    let mut prev_t: Option<f64> = None;
+    for v in verdicts {
+        if !v.t.is_finite() {
+            continue;
+        }
+        // Through a gap the device keeps reporting, once a period.
+        if let Some(p) = prev_t.filter(|p| v.t > *p) {
+            let mut t = p + STATUS_PERIOD_S;
+            while t < v.t && t < p + 86_400.0 {
+                emit(&mut h, t, &mut out);
+                t += STATUS_PERIOD_S;
+            }
+        }
+        h.on_fix(v.t);
+        h.on_verdict(v, v.t);
+        emit(&mut h, v.t, &mut out);
+        prev_t = Some(prev_t.map_or(v.t, |p| p.max(v.t)));
+    }
+    out
+}
+
+/// Seconds the status reported each state.
+pub fn state_seconds(status: &[(f64, Value)]) -> BTreeMap<String, usize> {
+    let mut m = BTreeMap::new();
+    for (_, s) in status {
+        if let Some(st) = s["state"].as_str() {
+            *m.entry(st.to_string()).or_insert(0) += 1;
+        }
+    }
+    m
+}

@@ -73,7 +73,8 @@ enum Cmd {
     /// Run the detector over one drive: per-epoch verdicts, then a summary.
     Detect {
         path: PathBuf,
-        /// JSON lines: one per epoch, then {"summary": ...}.
+        /// JSON lines: one per epoch, {"status": ...} once a second (the firmware's status frame),
+        /// then {"summary": ..., "status": ..., "status_seconds": ...}.
         #[arg(long)]
         json: bool,
         /// Receiver profile (default: from the drive's fix rate).
@@ -256,19 +257,31 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let verdicts = detect::run_with(&samples, detect::config(p, predictor), predictor);
             let summary = detect::summarize(&verdicts, p);
+            let status = detect::status_lines(&verdicts);
             let mut out = std::io::BufWriter::new(std::io::stdout().lock());
             use std::io::Write;
+            // Verdicts and, once a second of drive time, the device's status, in time order.
+            let mut next_status = status.iter().peekable();
             for v in &verdicts {
                 if json {
+                    while let Some((_, s)) = next_status.next_if(|(t, _)| *t < v.t) {
+                        writeln!(out, "{}", serde_json::json!({ "status": s }))?;
+                    }
                     writeln!(out, "{}", detect::verdict_json(v))?;
                 } else {
                     writeln!(out, "{}", detect::verdict_line(v))?;
                 }
             }
+            let last_status = status.last().map(|(_, s)| s.clone());
             if json {
-                writeln!(out, "{}", serde_json::json!({ "summary": summary }))?;
+                for (_, s) in next_status {
+                    writeln!(out, "{}", serde_json::json!({ "status": s }))?;
+                }
+                writeln!(out, "{}", serde_json::json!({ "summary": summary, "status": last_status, "status_seconds": detect::state_seconds(&status) }))?;
             } else {
                 writeln!(out, "summary: {}", serde_json::to_string_pretty(&summary)?)?;
+                writeln!(out, "status at the end: {}", last_status.map_or("none".into(), |s| s.to_string()))?;
+                writeln!(out, "status seconds per state: {:?}", detect::state_seconds(&status))?;
             }
             Ok(())
         }

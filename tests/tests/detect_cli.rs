@@ -2,13 +2,65 @@
 
 use system_tests::{data_dir, host_sim};
 
+/// Verdict lines and the summary (the once-a-second status lines are checked and dropped).
 fn detect(path: &std::path::Path) -> (Vec<serde_json::Value>, serde_json::Value) {
+    let (lines, summary, status) = detect_with_status(path);
+    // The device's status once a second of drive time, with the firmware's fields.
+    let secs = lines.last().zip(lines.first()).map_or(0.0, |(a, b)| a["t"].as_f64().unwrap() - b["t"].as_f64().unwrap());
+    assert!(status.len() as f64 >= secs.floor(), "{}: {} status lines for {secs} s", path.display(), status.len());
+    for st in &status {
+        for k in ["state", "ran", "degraded", "fix_age_s", "epochs", "can_dropped", "can_overruns", "nmea_errors", "restarts", "detector_restarts"] {
+            assert!(st.get(k).is_some(), "{k} missing in {st}");
+        }
+    }
+    (lines, summary)
+}
+
+fn detect_with_status(path: &std::path::Path) -> (Vec<serde_json::Value>, serde_json::Value, Vec<serde_json::Value>) {
     let out = host_sim(&["detect", "--json", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}: {}", path.display(), String::from_utf8_lossy(&out.stderr));
     let mut lines: Vec<serde_json::Value> =
         String::from_utf8(out.stdout).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
     let summary = lines.pop().unwrap()["summary"].clone();
-    (lines, summary)
+    let status = lines.iter().filter_map(|l| l.get("status").cloned()).collect();
+    lines.retain(|l| l.get("status").is_none());
+    (lines, summary, status)
+}
+
+/// Issue #14: a 10 Hz drive at 8 m/s with the wheel held between 20 and 60 deg for 25 s and
+/// then turned past 60 deg panicked `host-sim detect` (turn.rs: index out of bounds). It must
+/// run to the end, exit 0 and raise nothing (GNSS follows the wheel).
+#[test]
+fn a_long_bend_before_a_turn_is_judged_without_panic() {
+    let dir = std::env::temp_dir().join(format!("gnss-guard-bend-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bend.csv");
+    let mut csv = String::from("t_s,unix_time_s,lat_deg,lon_deg,gnss_new_fix,gnss_fix_age_s,gnss_speed_mps,gnss_course_deg,veh_speed_mps,steer_wheel_deg,accel_pedal_pct,long_accel_mps2,yaw_rate_degps\n");
+    let (r, v) = (6_378_000.0f64, 8.0f64);
+    let (mut lat, mut lon, mut hdg) = (48.0f64, 11.0f64, 0.0f64);
+    let mut seed = 1u32;
+    let mut noise = |a: f64| {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        a * ((seed >> 8) as f64 / (1u32 << 24) as f64 * 2.0 - 1.0)
+    };
+    for k in 0..900 {
+        let t = k as f64 * 0.1;
+        let st = if t < 30.0 { noise(3.0) } else if t < 55.0 { 40.0 + noise(4.0) } else if t < 62.0 { 120.0 + noise(4.0) } else { noise(3.0) };
+        let yaw = (v * (st / 15.0).to_radians().tan() / 2.7).to_degrees();
+        hdg = (hdg - yaw * 0.1).rem_euclid(360.0);
+        lat += v * 0.1 * hdg.to_radians().cos() / r * 180.0 / std::f64::consts::PI;
+        lon += v * 0.1 * hdg.to_radians().sin() / (r * lat.to_radians().cos()) * 180.0 / std::f64::consts::PI;
+        csv += &format!("{t:.1},{:.1},{lat:.8},{lon:.8},1,0.0,{v:.2},{hdg:.2},{v:.2},{st:.2},20,0,{yaw:.3}\n", 1.6e9 + t);
+    }
+    std::fs::write(&path, csv).unwrap();
+    let out = host_sim(&["detect", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let (lines, summary, status) = detect_with_status(&path);
+    assert_eq!(lines.len(), 900);
+    assert_eq!(summary["alarm"], false, "{summary}");
+    assert!(lines.iter().any(|l| l["turn"]["steering"] == "left"), "the turn was judged");
+    assert_eq!(status.last().unwrap()["state"], "running");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -127,7 +127,10 @@ fn digest_runs_the_firmware_pipeline_on_the_host() {
     let out = system_tests::host_sim(&["digest"]);
     let s = String::from_utf8(out.stdout).unwrap();
     assert!(out.status.success(), "{s}");
-    assert!(s.lines().filter(|l| l.starts_with("scenario ") && l.ends_with("PASS")).count() == 4, "{s}");
+    assert!(s.lines().filter(|l| l.starts_with("scenario ") && l.ends_with("PASS")).count() == 5, "{s}");
+    // The outage is reported: blind for most of its 15 s, the fix age growing to its length.
+    let outage = s.lines().find(|l| l.starts_with("scenario gnss-outage")).unwrap();
+    assert!(outage.contains("no alarm") && outage.contains(" blind 1") && outage.contains("watchdog refused 0"), "{outage}");
     assert!(s.lines().last().unwrap().starts_with("verdict digest: "));
     let sim = std::process::Command::new(system_tests::host_sim_bin()).arg("digest").env("GNSS_DATA_DIR", "/nonexistent-gnss-data").output().unwrap();
     let s2 = String::from_utf8(sim.stdout).unwrap();

@@ -3,33 +3,53 @@
 //! One task per concern, typed channels between them, interrupts bound in one place:
 //!
 //! ```text
-//! can_task  (bxCAN1, 500 kbit/s, hardware filters = the profile's ids) --CanMsg-->  \
-//!                                                                                    detector_task --> alarm: CAN frame, PA5, defmt
-//! gnss_task (USART2 RX, DMA ring buffer, NMEA lines)                  --NmeaLine--> /       |
-//!                                                                          (feeds the independent watchdog)
+//! can_rx_task  (interrupt executor, preempts the others) bxCAN FIFO -> CanMsg -> CAN_RX ---\
+//! gnss_task    USART2 RX, DMA ring buffer, NMEA lines -> NmeaLine -> NMEA_RX --------------> detector_task
+//!                                                                                           | pipeline: synchroniser, detector,
+//! can_tx_task  <- TX_QUEUE (alarm first, status pages) <- TX_WAKE <--------------------------/ status, alarm outbox; PA5; watchdog
 //! ```
 //!
-//! Channels drop their oldest message when full and count it, so a burst never blocks a
-//! receiver. bxCAN's automatic bus-off management (ABOM, set by `enable()`) takes the controller
-//! back on the bus after a bus-off; bus errors are counted. UART overrun, framing and noise errors
-//! discard the partial sentence and the DMA ring buffer restarts. The watchdog is fed only by the
-//! detector loop, at least every 500 ms while it is healthy.
+//! - Reception cannot overflow unseen while a detector step runs: `can_rx_task` runs on an
+//!   interrupt executor (UART4's vector, unused otherwise, priority 6), so it preempts a
+//!   detector step in thread mode and moves frames from bxCAN's 3-frame hardware FIFO into
+//!   `CAN_RX` (64 frames) within microseconds. At 500 kbit/s the shortest frame (no data, no
+//!   stuffing) takes 94 us: 64 frames cover 6 ms of a saturated bus, more than the longest epoch
+//!   (QEMU: `longest epoch` line). The hardware overrun flags (FOVR0/1) and bus errors are
+//!   counted as overruns, `CAN_RX` drops its oldest message when full and counts it; both go out
+//!   in the status frame (page 1).
+//! - The watchdog (IWDG, 2 s) is fed by the detector loop only when
+//!   `gnss_guard_board::health::WatchdogGate` allows: an epoch within the last 5 s, or GNSS
+//!   silent and reported as blind. A hung loop, or a pipeline that receives fixes but stops
+//!   producing epochs, is reset.
+//! - A failed GNSS UART or CAN start-up is a reported fault (status page 2, defmt), not silence.
+//! - Alarm frames are never silently dropped: the transmit queue merges an alarm into one not
+//!   yet sent and takes back one the mailboxes could not take (counted as a retry); while the
+//!   alarm is latched it is repeated once a second. Only a clear request frame
+//!   (`GNSS_GUARD_CLEAR`, KEY 0xC1EA) or a power cycle clears the latch.
 #![no_std]
 #![no_main]
 
-use defmt::{info, warn};
-use embassy_executor::Spawner;
-use embassy_futures::select::{select, select3, Either, Either3};
-use embassy_stm32::can::filter::{ListEntry16, Mask32};
-use embassy_stm32::can::{Can, Fifo, Frame, StandardId};
+use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
+use defmt::{error, info, warn};
+use cortex_m_rt::entry;
+use embassy_executor::{Executor, InterruptExecutor, SendSpawner, Spawner};
+use embassy_futures::select::{select3, Either3};
+use embassy_stm32::can::filter::ListEntry16;
+use embassy_stm32::can::{Can, CanRx, CanTx, Fifo, Frame, StandardId};
+use embassy_stm32::interrupt;
+use embassy_stm32::interrupt::{InterruptExt, Priority};
 use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::usart::{self, RingBufferedUartRx, UartRx};
 use embassy_stm32::wdg::IndependentWatchdog;
-use embassy_stm32::{bind_interrupts, can, dma, peripherals};
+use embassy_stm32::{bind_interrupts, can, dma, pac, peripherals};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::channel::Channel;
-use embassy_time::{Instant, Timer};
+use embassy_sync::signal::Signal;
+use embassy_time::{Duration, Instant, Timer};
 use gnss_guard_board::gnss::{LineSplitter, MAX_SENTENCE};
+use gnss_guard_board::health::{Faults, ResetCause, TxFrame, TxQueue, WatchdogGate};
 use gnss_guard_board::pipeline::Pipeline;
 use {defmt_rtt as _, panic_probe as _};
 
@@ -61,9 +81,31 @@ struct NmeaLine {
     line: heapless::Vec<u8, MAX_SENTENCE>,
 }
 
+static EXECUTOR_CAN: InterruptExecutor = InterruptExecutor::new();
+static EXECUTOR_MAIN: static_cell::StaticCell<Executor> = static_cell::StaticCell::new();
+static CAN: static_cell::StaticCell<Can<'static>> = static_cell::StaticCell::new();
 static CAN_RX: Channel<CriticalSectionRawMutex, CanMsg, 64> = Channel::new();
 static NMEA_RX: Channel<CriticalSectionRawMutex, NmeaLine, 8> = Channel::new();
-static ALARM_TX: Channel<CriticalSectionRawMutex, (u16, [u8; 8]), 4> = Channel::new();
+static TX_QUEUE: Mutex<CriticalSectionRawMutex, RefCell<TxQueue>> = Mutex::new(RefCell::new(TxQueue::new()));
+
+#[interrupt]
+#[allow(non_snake_case)]
+unsafe fn UART4() {
+    // SAFETY: UART4 is not used; its vector only runs the CAN receive executor, as
+    // `InterruptExecutor::on_interrupt` requires.
+    unsafe { EXECUTOR_CAN.on_interrupt() }
+}
+static TX_WAKE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+
+// Counters the receive tasks keep for the status frame.
+static CAN_DROPPED: AtomicU32 = AtomicU32::new(0);
+static CAN_OVERRUNS: AtomicU32 = AtomicU32::new(0);
+static UART_ERRORS: AtomicU32 = AtomicU32::new(0);
+
+fn bump(c: &AtomicU32) {
+    // Saturating: fetch_update never fails with a `Some` closure.
+    let _ = c.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |v| Some(v.saturating_add(1)));
+}
 
 /// Sends, dropping the oldest message when the channel is full; returns whether one was dropped.
 fn send_drop_oldest<T, const N: usize>(ch: &Channel<CriticalSectionRawMutex, T, N>, msg: T) -> bool {
@@ -77,35 +119,58 @@ fn send_drop_oldest<T, const N: usize>(ch: &Channel<CriticalSectionRawMutex, T, 
     }
 }
 
+/// bxCAN's receive FIFO overrun flags: counted and cleared.
+fn check_fifo_overruns() {
+    for fifo in 0..2 {
+        if pac::CAN1.rfr(fifo).read().fovr() {
+            pac::CAN1.rfr(fifo).write(|w| w.set_fovr(true));
+            bump(&CAN_OVERRUNS);
+        }
+    }
+}
+
 #[embassy_executor::task]
-async fn can_task(mut can: Can<'static>) {
-    let (mut dropped, mut bus_errors) = (0u32, 0u32);
+async fn can_rx_task(mut rx: CanRx<'static>) {
     loop {
-        match select(can.read(), ALARM_TX.receive()).await {
-            Either::First(Ok(env)) => {
+        let env = rx.read().await;
+        check_fifo_overruns();
+        match env {
+            Ok(env) => {
                 if let embedded_can::Id::Standard(id) = env.frame.id() {
                     let data = env.frame.data();
                     let mut d = [0u8; 8];
                     let n = data.len().min(8);
                     d[..n].copy_from_slice(&data[..n]);
-                    let msg = CanMsg { t_us: Instant::now().as_micros(), id: id.as_raw(), len: n as u8, data: d };
+                    let msg = CanMsg { t_us: env.ts.as_micros(), id: id.as_raw(), len: n as u8, data: d };
                     if send_drop_oldest(&CAN_RX, msg) {
-                        dropped += 1;
-                        warn!("CAN queue full: dropped {} frames so far", dropped);
+                        bump(&CAN_DROPPED);
                     }
                 }
             }
-            Either::First(Err(e)) => {
+            Err(e) => {
                 // Bus-off is recovered by the controller itself (ABOM); keep reading.
-                bus_errors += 1;
-                warn!("CAN bus error {} (#{})", e, bus_errors);
+                bump(&CAN_OVERRUNS);
+                warn!("CAN bus error {}", e);
             }
-            Either::Second((id, data)) => {
-                if let Ok(frame) = Frame::new_standard(id, &data) {
-                    if can.try_write(&frame).is_err() {
-                        warn!("CAN: alarm frame not sent, mailboxes full");
-                    }
+        }
+    }
+}
+
+#[embassy_executor::task]
+async fn can_tx_task(mut tx: CanTx<'static>) {
+    loop {
+        TX_WAKE.wait().await;
+        while let Some(f) = TX_QUEUE.lock(|q| q.borrow_mut().pop()) {
+            let (id, data) = f.encode();
+            let Ok(frame) = Frame::new_standard(id, &data) else { continue };
+            if tx.try_write(&frame).is_err() {
+                // Mailboxes full: the frame goes back (an alarm merged with anything newer)
+                // and is retried when a mailbox frees.
+                TX_QUEUE.lock(|q| q.borrow_mut().give_back(f));
+                if matches!(f, TxFrame::Alarm(_)) {
+                    warn!("CAN: alarm frame queued for retry, mailboxes full");
                 }
+                tx.flush_any().await;
             }
         }
     }
@@ -115,95 +180,179 @@ async fn can_task(mut can: Can<'static>) {
 async fn gnss_task(mut rx: RingBufferedUartRx<'static>) {
     let mut splitter = LineSplitter::default();
     let mut buf = [0u8; 64];
-    let (mut uart_errors, mut dropped) = (0u32, 0u32);
     loop {
         match rx.read(&mut buf).await {
             Ok(n) => {
                 let t_us = Instant::now().as_micros();
+                let before = splitter.dropped;
                 splitter.push(&buf[..n], |l| {
                     let mut line = heapless::Vec::new();
                     let _ = line.extend_from_slice(l);
                     if send_drop_oldest(&NMEA_RX, NmeaLine { t_us, line }) {
-                        dropped += 1;
+                        bump(&UART_ERRORS);
                     }
                 });
+                for _ in before..splitter.dropped {
+                    bump(&UART_ERRORS);
+                }
             }
             Err(e) => {
                 // Overrun, framing, noise or parity: the partial sentence is unusable.
-                uart_errors += 1;
+                bump(&UART_ERRORS);
                 splitter.discard_partial();
-                warn!("GNSS UART error {} (#{}), {} lines dropped", e, uart_errors, dropped);
+                warn!("GNSS UART error {}", e);
             }
         }
     }
 }
 
 #[embassy_executor::task]
-async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatchdog<'static, peripherals::IWDG>) {
+async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatchdog<'static, peripherals::IWDG>, mut faults: Faults, reset_cause: ResetCause, restarts: u32) {
     // Strategy 1: the LSTM with the built-in model, or the kinematic predictor if it is invalid.
     let predictor = detector_core::strategy::location_shift::Predictor::default_lstm();
     if !matches!(predictor, detector_core::strategy::location_shift::Predictor::Lstm(_)) {
-        warn!("LSTM model invalid: strategy 1 uses the kinematic predictor");
+        error!("LSTM model invalid: strategy 1 uses the kinematic predictor");
+        faults.set(Faults::MODEL_INVALID);
     }
     let cfg = detector_core::fusion::Config::for_predictor(&detector_core::profile::UBLOX_10HZ, &predictor);
     let templates = detector_core::strategy::turn::TemplateSet::parse(detector_core::strategy::turn::DEFAULT_TEMPLATES).ok();
     if templates.is_none() {
-        warn!("turn templates invalid: strategy 2 disabled");
+        error!("turn templates invalid: strategy 2 disabled");
+        faults.set(Faults::TEMPLATES_INVALID);
     }
     let mut p = Pipeline::new(cfg, templates, predictor);
-    let mut latched = false;
+    p.health.faults = faults;
+    p.health.reset_cause = reset_cause;
+    p.health.counters.restarts = restarts;
+    let mut gate = WatchdogGate::default();
     loop {
         let mut on_verdict = |v: &detector_core::fusion::Verdict| {
-            if !v.fired.is_empty() || v.alarm {
-                let _ = ALARM_TX.try_send(gnss_guard_board::can::alarm_frame(v));
-            }
             if !v.fired.is_empty() {
                 warn!("SPOOFING ALARM epoch {} fired {=u8:b} reasons {=u16:b}", v.epoch, v.fired.0, v.reasons.0);
             }
-            if v.alarm && !latched {
-                latched = true;
-            }
         };
-        match select3(CAN_RX.receive(), NMEA_RX.receive(), Timer::after_millis(500)).await {
+        // Woken by a frame, a sentence, or every 100 ms for the status and alarm repeats.
+        match select3(CAN_RX.receive(), NMEA_RX.receive(), Timer::after(Duration::from_millis(100))).await {
             Either3::First(m) => p.on_can(m.t_us as f64 * 1e-6, m.id as u32, &m.data[..m.len as usize], &mut on_verdict),
             Either3::Second(n) => p.on_nmea(n.t_us as f64 * 1e-6, &n.line, &mut on_verdict),
             Either3::Third(()) => {}
         }
-        if latched {
-            alarm_pin.set_high();
+        let now = Instant::now().as_micros() as f64 * 1e-6;
+        p.health.counters.can_dropped = CAN_DROPPED.load(Ordering::Relaxed);
+        p.health.counters.can_overruns = CAN_OVERRUNS.load(Ordering::Relaxed);
+        p.uart_errors = UART_ERRORS.load(Ordering::Relaxed);
+        p.alarm.retries = TX_QUEUE.lock(|q| q.borrow().alarm_retries);
+        let out = p.poll(now);
+        if out.alarm.is_some() || out.status.is_some() {
+            TX_QUEUE.lock(|q| {
+                let mut q = q.borrow_mut();
+                if let Some(a) = out.alarm {
+                    q.push_alarm(a);
+                }
+                if let Some(s) = out.status {
+                    q.push_status(s);
+                }
+            });
+            if out.alarm.is_some() {
+                p.alarm.sent(now);
+            }
+            TX_WAKE.signal(());
         }
-        wdg.pet();
+        if p.alarm.latched() {
+            alarm_pin.set_high();
+        } else {
+            alarm_pin.set_low();
+        }
+        if gate.may_feed(&p.health, now) {
+            wdg.pet();
+        }
     }
 }
 
-#[embassy_executor::main]
-async fn main(spawner: Spawner) {
-    let p = embassy_stm32::init(Default::default());
-    info!("gnss-guard: profile {}, {} CAN ids filtered", gnss_guard_board::can::PROFILE, gnss_guard_board::can::FILTER_IDS.len());
+/// The cause of the last reset (RCC CSR), then the flags cleared; and the count of resets since
+/// power-on, kept in the RTC backup register 0 (it survives resets, not power loss).
+fn boot_record() -> (ResetCause, u32) {
+    let csr = pac::RCC.csr().read();
+    let cause = if csr.borrstf() || csr.porrstf() {
+        ResetCause::PowerOn
+    } else if csr.wdgrstf() {
+        ResetCause::IndependentWatchdog
+    } else if csr.wwdgrstf() {
+        ResetCause::WindowWatchdog
+    } else if csr.sftrstf() {
+        ResetCause::Software
+    } else if csr.lpwrrstf() {
+        ResetCause::LowPower
+    } else if csr.padrstf() {
+        ResetCause::Pin
+    } else {
+        ResetCause::Unknown
+    };
+    pac::RCC.csr().modify(|w| w.set_rmvf(true));
+    // Backup domain: PWR clock on, write protection off.
+    pac::RCC.apb1enr().modify(|w| w.set_pwren(true));
+    pac::PWR.cr1().modify(|w| w.set_dbp(true));
+    let restarts = if cause == ResetCause::PowerOn { 0 } else { pac::RTC.bkpr(0).read().bkp().saturating_add(1) };
+    pac::RTC.bkpr(0).write(|w| w.set_bkp(restarts));
+    (cause, restarts)
+}
 
-    // Alarm pin (PA5) and watchdog (2 s), fed only by the detector loop.
+#[entry]
+fn main() -> ! {
+    let p = embassy_stm32::init(Default::default());
+    interrupt::UART4.set_priority(Priority::P6);
+    let can_spawner = EXECUTOR_CAN.start(interrupt::UART4);
+    let executor = EXECUTOR_MAIN.init(Executor::new());
+    executor.run(|spawner| spawner.spawn(start(spawner, can_spawner, p).expect("start task spawns once")))
+}
+
+/// Brings the peripherals up, reports what failed, and spawns the tasks.
+#[embassy_executor::task]
+async fn start(spawner: Spawner, can_spawner: SendSpawner, p: embassy_stm32::Peripherals) {
+    let (reset_cause, restarts) = boot_record();
+    info!("gnss-guard: profile {}, {} CAN ids filtered, reset cause {}, {} restarts", gnss_guard_board::can::PROFILE, gnss_guard_board::can::FILTER_IDS.len(), reset_cause as u8, restarts);
+    let mut faults = Faults::default();
+
+    // Alarm pin (PA5) and watchdog (2 s), fed only by the detector loop through its gate.
     let alarm_pin = Output::new(p.PA5, Level::Low, Speed::Low);
     let mut wdg = IndependentWatchdog::new(p.IWDG, 2_000_000);
     wdg.unleash();
 
-    // CAN1 on PA11/PA12 at 500 kbit/s; hardware filters: the profile's ids, 4 per bank.
-    let mut can = Can::new(p.CAN1, p.PA11, p.PA12, Irqs);
+    // CAN1 on PA11/PA12 at 500 kbit/s; hardware filters: the profile's ids and our clear
+    // request, 4 per bank.
+    let can = CAN.init(Can::new(p.CAN1, p.PA11, p.PA12, Irqs));
     {
         let mut f = can.modify_filters();
-        let ids = gnss_guard_board::can::FILTER_IDS;
-        if ids.is_empty() {
-            f.enable_bank(0, Fifo::Fifo0, Mask32::accept_all());
-        }
-        for (bank, chunk) in ids.chunks(4).enumerate() {
-            let entry = |k: usize| {
+        let ids = gnss_guard_board::can::FILTER_IDS.iter().copied().chain([gnss_guard_board::can::ours::CLEAR_ID]);
+        let mut bank = 0u8;
+        let mut chunk: heapless::Vec<u16, 4> = heapless::Vec::new();
+        let entries = |chunk: &heapless::Vec<u16, 4>| {
+            let e = |k: usize| {
                 let id = chunk.get(k).or(chunk.first()).copied().unwrap_or(0);
                 ListEntry16::data_frames_with_id(StandardId::new(id).unwrap_or(StandardId::ZERO))
             };
-            f.enable_bank(bank as u8, Fifo::Fifo0, [entry(0), entry(1), entry(2), entry(3)]);
+            [e(0), e(1), e(2), e(3)]
+        };
+        for id in ids {
+            let _ = chunk.push(id);
+            if chunk.is_full() {
+                f.enable_bank(bank, Fifo::Fifo0, entries(&chunk));
+                bank += 1;
+                chunk.clear();
+            }
+        }
+        if !chunk.is_empty() {
+            f.enable_bank(bank, Fifo::Fifo0, entries(&chunk));
         }
     }
     can.set_bitrate(CAN_BITRATE);
-    can.enable().await;
+    // Leaving initialisation needs 11 recessive bits on the bus: without a bus (no transceiver,
+    // no power) that never happens, which is a fault to report, not a hang.
+    if embassy_time::with_timeout(Duration::from_millis(500), can.enable()).await.is_err() {
+        error!("CAN start-up failed: no bus after 500 ms");
+        faults.set(Faults::CAN_START);
+    }
+    let (tx, rx) = can.split();
 
     // GNSS receiver on USART2 RX (PA3), DMA ring buffer.
     let mut ucfg = usart::Config::default();
@@ -212,13 +361,15 @@ async fn main(spawner: Spawner) {
     let gnss = match UartRx::new(p.USART2, p.PA3, p.DMA1_CH5, Irqs, ucfg) {
         Ok(rx) => Some(rx.into_ring_buffered(DMA_BUF.init([0; 512]))),
         Err(_) => {
-            warn!("GNSS UART configuration refused");
+            error!("GNSS UART start-up failed: configuration refused");
+            faults.set(Faults::UART_START);
             None
         }
     };
 
-    spawner.spawn(detector_task(alarm_pin, wdg).expect("detector task spawns once"));
-    spawner.spawn(can_task(can).expect("CAN task spawns once"));
+    spawner.spawn(detector_task(alarm_pin, wdg, faults, reset_cause, restarts).expect("detector task spawns once"));
+    can_spawner.spawn(can_rx_task(rx).expect("CAN receive task spawns once"));
+    spawner.spawn(can_tx_task(tx).expect("CAN transmit task spawns once"));
     if let Some(rx) = gnss {
         spawner.spawn(gnss_task(rx).expect("GNSS task spawns once"));
     }

@@ -1,4 +1,5 @@
-//! CAN decoding and the alarm frame, from the profile's DBC (see `build.rs`).
+//! CAN decoding from the vehicle profile's DBC, and our own messages from `profiles/gnss_guard.dbc`
+//! (see `build.rs`; the status and alarm frames are made in [`crate::health`]).
 
 use detector_core::sample::Signal;
 
@@ -101,9 +102,10 @@ pub fn decode(id: u32, data: &[u8]) -> impl Iterator<Item = (Signal, f32)> + '_ 
     })
 }
 
-/// Is this standard id one the profile needs (what the hardware filters accept)?
+/// Is this standard id one the profile needs, or our clear request (what the hardware filters
+/// accept)?
 pub fn wanted(id: u32) -> bool {
-    FILTER_IDS.iter().any(|&f| f as u32 == id)
+    id == ours::CLEAR_ID as u32 || FILTER_IDS.iter().any(|&f| f as u32 == id)
 }
 
 /// Encodes a detector value into the profile's frame for `signal` (used to synthesise frames
@@ -113,15 +115,19 @@ pub fn encode(signal: Signal, value: f32, data: &mut [u8; 8]) -> Option<u32> {
     m.field.put(data, value as f64 / m.factor).then_some(m.id)
 }
 
-/// Our alarm frame for a verdict.
-pub fn alarm_frame(v: &detector_core::fusion::Verdict) -> (u16, [u8; 8]) {
+/// The key a clear request must carry (`GNSS_GUARD_CLEAR.KEY`).
+pub const CLEAR_KEY: i64 = 0xC1EA;
+
+/// Is this frame our clear request (the only thing that clears a latched alarm)?
+pub fn is_clear_request(id: u32, data: &[u8]) -> bool {
+    id == ours::CLEAR_ID as u32 && ours::CLEAR_KEY.raw(data) == Some(CLEAR_KEY)
+}
+
+/// A clear request frame.
+pub fn clear_request() -> (u16, [u8; 8]) {
     let mut d = [0u8; 8];
-    ALARM_ALARM.put_raw(&mut d, v.alarm as i64);
-    ALARM_FIRED.put_raw(&mut d, v.fired.0 as i64);
-    ALARM_DEGRADED.put_raw(&mut d, v.degraded.0 as i64);
-    ALARM_REASONS.put_raw(&mut d, v.reasons.0 as i64);
-    ALARM_EPOCH.put_raw(&mut d, (v.epoch & 0xFF_FFFF) as i64);
-    (ALARM_ID, d)
+    let _ = ours::CLEAR_KEY.put_raw(&mut d, CLEAR_KEY);
+    (ours::CLEAR_ID, d)
 }
 
 #[cfg(test)]
@@ -151,11 +157,15 @@ mod tests {
     }
 
     #[test]
-    fn alarm_frame_layout() {
-        let f = ALARM_FIRED;
+    fn our_frames_layout() {
+        let f = ours::ALARM_FIRED;
         let mut d = [0u8; 8];
         assert!(f.put_raw(&mut d, 5));
         assert_eq!(d[1], 5);
         assert_eq!(f.raw(&d), Some(5));
+        let (id, d) = clear_request();
+        assert!(is_clear_request(id as u32, &d) && wanted(id as u32));
+        assert!(!is_clear_request(id as u32, &[0, 0]), "a wrong key clears nothing");
+        assert!(!is_clear_request(id as u32, &[]), "a short frame clears nothing");
     }
 }

@@ -1,8 +1,10 @@
-//! The detector pipeline of the firmware: CAN frames and NMEA sentences in, verdicts out.
-//! The same code runs on the STM32, in QEMU and in `host-sim digest`.
+//! The detector pipeline of the firmware: CAN frames and NMEA sentences in, verdicts out, and
+//! the frames it owes the bus (alarm, status). The same code runs on the STM32, in QEMU and in
+//! `host-sim digest`. Times are the device's clock, seconds.
 
 use crate::can;
 use crate::gnss::NmeaFixer;
+use crate::health::{AlarmFrame, AlarmOutbox, Health, StatusFrames};
 use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::sample::Sample;
 use detector_core::strategy::location_shift::Predictor;
@@ -45,14 +47,28 @@ impl Digest {
     }
 }
 
-/// Everything between the receive tasks and the alarm output.
+/// Everything between the receive tasks and the CAN transmitter.
 pub struct Pipeline<'t> {
     sync: Synchronizer,
     det: Detector<'t, Predictor<'t>>,
     pub nmea: NmeaFixer,
     pub digest: Digest,
+    /// Epochs judged and CAN frames received since start (each wraps at `u32::MAX`).
     pub epochs: u32,
     pub frames: u32,
+    pub health: Health,
+    pub alarm: AlarmOutbox,
+    /// Clear requests honoured.
+    pub clears: u32,
+    /// UART errors and lines the splitter dropped (the firmware's GNSS task reports them).
+    pub uart_errors: u32,
+}
+
+/// What the pipeline owes the bus at one moment.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Outgoing {
+    pub alarm: Option<AlarmFrame>,
+    pub status: Option<StatusFrames>,
 }
 
 impl<'t> Pipeline<'t> {
@@ -70,36 +86,73 @@ impl<'t> Pipeline<'t> {
             digest: Digest::default(),
             epochs: 0,
             frames: 0,
+            health: Health::default(),
+            alarm: AlarmOutbox::default(),
+            clears: 0,
+            uart_errors: 0,
         }
     }
 
-    /// One received CAN frame (standard id) at time `t`, seconds.
+    /// One received CAN frame (standard id) at time `t`, seconds. Our clear request clears
+    /// the latched alarm.
     pub fn on_can(&mut self, t: f64, id: u32, data: &[u8], out: &mut impl FnMut(&Verdict)) {
-        self.frames += 1;
-        let Self { sync, det, digest, epochs, .. } = self;
+        self.frames = self.frames.wrapping_add(1);
+        if can::is_clear_request(id, data) {
+            self.det.clear_alarm();
+            self.alarm.clear();
+            self.health.on_clear();
+            self.clears = self.clears.wrapping_add(1);
+            return;
+        }
+        let Self { sync, det, digest, epochs, health, alarm, .. } = self;
         for (sig, v) in can::decode(id, data) {
-            sync.push_obs(sig, t, v, &mut |s: &Sample| judge(det, digest, epochs, out, s));
+            sync.push_obs(sig, t, v, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s));
         }
     }
 
     /// One NMEA sentence received at time `t`, seconds.
     pub fn on_nmea(&mut self, t: f64, line: &[u8], out: &mut impl FnMut(&Verdict)) {
-        let Some(fix) = self.nmea.line(t, line) else { return };
-        let Self { sync, det, digest, epochs, .. } = self;
-        sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, out, s));
+        let fix = self.nmea.line(t, line);
+        let c = self.nmea.counters;
+        self.health.counters.nmea_errors = c.rejected.saturating_add(c.overlong).saturating_add(self.uart_errors);
+        let Some(fix) = fix else { return };
+        self.health.on_fix(t);
+        let Self { sync, det, digest, epochs, health, alarm, .. } = self;
+        sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s));
     }
 
-    /// Emits what is pending (end of a replay).
-    pub fn finish(&mut self, out: &mut impl FnMut(&Verdict)) {
-        let Self { sync, det, digest, epochs, .. } = self;
-        sync.flush(&mut |s: &Sample| judge(det, digest, epochs, out, s));
+    /// Emits what is pending (end of a replay), at time `t`.
+    pub fn finish(&mut self, t: f64, out: &mut impl FnMut(&Verdict)) {
+        let Self { sync, det, digest, epochs, health, alarm, .. } = self;
+        sync.flush(&mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s));
+    }
+
+    /// What is owed to the bus at `now`: an alarm frame (pending, or the latched alarm's
+    /// repeat) and, once a period, the status frames. Report the alarm frame's fate with
+    /// [`AlarmOutbox::sent`] or [`AlarmOutbox::failed`] on `self.alarm`.
+    pub fn poll(&mut self, now: f64) -> Outgoing {
+        self.health.counters.alarm_retries = self.alarm.retries;
+        Outgoing { alarm: self.alarm.next(now), status: self.health.status_due(now) }
     }
 }
 
-/// One synchronised sample through the detector into the digest and out.
-fn judge(det: &mut Detector<'_, Predictor<'_>>, digest: &mut Digest, epochs: &mut u32, out: &mut impl FnMut(&Verdict), s: &Sample) {
+/// One synchronised sample through the detector into the digest, the health and the alarm
+/// outbox, and out.
+#[allow(clippy::too_many_arguments)]
+fn judge(
+    det: &mut Detector<'_, Predictor<'_>>,
+    digest: &mut Digest,
+    epochs: &mut u32,
+    health: &mut Health,
+    alarm: &mut AlarmOutbox,
+    now: f64,
+    out: &mut impl FnMut(&Verdict),
+    s: &Sample,
+) {
     let v = det.step(s);
     digest.add(&v);
-    *epochs += 1;
+    *epochs = epochs.wrapping_add(1);
+    health.on_verdict(&v, now);
+    alarm.on_verdict(&v);
     out(&v);
 }

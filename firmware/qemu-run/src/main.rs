@@ -28,6 +28,8 @@ const DESC: &str = include_str!(concat!(env!("OUT_DIR"), "/input.txt"));
 /// SysTick ticks per instruction with `-icount shift=0` on netduinoplus2 (168 MHz / 1 GHz).
 const TICKS_PER_1000_INSTR: u64 = 168;
 const MAX_EPOCHS: usize = 4096;
+/// The firmware's CAN_RX queue (firmware/app/src/main.rs).
+const CAN_RX_CAPACITY: u64 = 64;
 
 fn fail(msg: &str) -> ! {
     hprintln!("qemu-run: {}", msg);
@@ -37,8 +39,9 @@ fn fail(msg: &str) -> ! {
     }
 }
 
-/// SysTick ticks spent on every epoch of every scenario, replayed with this configuration,
-/// into `costs` (one buffer reused: the stack holds one 16 KiB vector, not one per run).
+/// SysTick ticks spent on every epoch of every drive scenario (not the outage, whose first
+/// epoch after the gap carries the gap's CAN decoding), replayed with this configuration, into
+/// `costs` (one buffer reused: the stack holds one 16 KiB vector, not one per run).
 fn epoch_costs<'t>(
     input: &Input,
     cfg: Config,
@@ -49,8 +52,11 @@ fn epoch_costs<'t>(
 ) {
     costs.clear();
     for i in 0..input.scenarios() {
+        let outage = input.scenario(i).is_ok_and(|sc| sc.kind == replay::Kind::GnssOutage);
         let mut cost = |c: u32| {
-            let _ = costs.push(c);
+            if !outage {
+                let _ = costs.push(c);
+            }
         };
         if replay::run(input, i, cfg, templates, predictor, clock, &mut cost).is_err() {
             fail("replay failed");
@@ -86,15 +92,20 @@ fn main() -> ! {
     let mut costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
     let mut digests: heapless::Vec<gnss_guard_board::pipeline::Digest, 8> = heapless::Vec::new();
     let mut all = true;
+    let mut longest_call = 0u32;
     for i in 0..input.scenarios() {
         let Ok(sc) = input.scenario(i) else { fail("bad scenario") };
+        let outage = sc.kind == replay::Kind::GnssOutage;
         let mut cost = |c: u32| {
-            let _ = costs.push(c);
+            if !outage {
+                let _ = costs.push(c);
+            }
         };
         let Ok(o) = replay::run(&input, i, cfg, templates, &predictor, &mut clock, &mut cost) else { fail("replay failed") };
-        let pass = o.pass(sc.onset_s.is_nan(), replay::MAX_ALARM_DELAY_S);
+        let pass = o.pass(&sc, replay::MAX_ALARM_DELAY_S);
         all &= pass;
         let _ = digests.push(o.digest);
+        longest_call = longest_call.max(o.longest_call);
         hprintln!("{}", replay::describe(sc.name, &o, pass).as_str());
     }
     let instr = |ticks: u32| ticks as u64 * 1000 / TICKS_PER_1000_INSTR;
@@ -105,6 +116,23 @@ fn main() -> ! {
         }
     };
     report("instructions per epoch", &mut costs);
+    // CAN reception while the detector task holds the CPU: the receive task preempts it and
+    // queues frames in CAN_RX (64), which the detector task drains between calls. At 500 kbit/s
+    // the shortest frame (no data, no bit stuffing) is 47 bits: 94 us.
+    let call = instr(longest_call);
+    let call_us = call as f64 / 168.0;
+    let frames = libm::ceil(call_us / 94.0) as u64;
+    hprintln!(
+        "longest pipeline call: {} instructions ({:.2} ms at 168 MHz, one instruction per cycle); a saturated 500 kbit/s bus delivers at most {} frames meanwhile, CAN_RX holds {}",
+        call,
+        call_us / 1000.0,
+        frames,
+        CAN_RX_CAPACITY
+    );
+    if frames >= CAN_RX_CAPACITY {
+        all = false;
+        hprintln!("qemu-run: the CAN queue could overflow during the longest call: FAIL");
+    }
     // The cost of the paper's strategies alone: the same scenarios without the consistency detectors.
     let mut paper_cfg = cfg;
     paper_cfg.consistency.enabled = false;

@@ -1,0 +1,684 @@
+//! The device's health, visible from outside: what the firmware says about itself on CAN once a
+//! second (`GNSS_GUARD_STATUS` in `profiles/gnss_guard.dbc`), when it may feed its watchdog,
+//! and the alarm frame's outbox (never silently dropped). Plain logic on the device's clock
+//! (seconds), so the host tests, the QEMU run and the firmware share it.
+//!
+//! - [`Health`] follows the pipeline: fixes received, verdicts, counters. [`Health::state`] is
+//!   one of [`State`]: a dead device (no status frame at all) and a blind one (status frames
+//!   saying `blind`) are told apart from a quiet healthy one (`running`, no alarm frame).
+//! - [`WatchdogGate`] says when the watchdog may be fed: only while the detector makes progress
+//!   (an epoch within [`LIVE_S`]) or GNSS is silent and the last status frame said `blind`. A
+//!   detector loop that hangs, or a pipeline that receives fixes but stops producing epochs, is
+//!   reset by the watchdog.
+//! - [`AlarmOutbox`] holds alarm frames until the CAN transmitter took them: a new frame merges
+//!   into one not yet sent (fired and reasons bits OR-ed, the earliest epoch kept), a frame that
+//!   could not be queued is retried and counted, and while the alarm is latched it is repeated
+//!   every [`ALARM_REPEAT_S`]. The latch clears only on a clear request frame
+//!   ([`crate::can::is_clear_request`]) or a power cycle.
+
+use crate::can::ours::*;
+use crate::can::Field;
+use detector_core::fusion::Verdict;
+use detector_core::strategy::StrategySet;
+
+/// Seconds between status frames (pages 0, 1 and 2 together).
+pub const STATUS_PERIOD_S: f64 = 1.0;
+/// No GNSS fix received for longer than this: the device is blind (the detector restarts after
+/// an epoch this long anyway), seconds.
+pub const BLIND_AFTER_S: f64 = 3.0;
+/// The detector counts as making progress while its last epoch is at most this old (a 1 Hz
+/// receiver with a dropped fix, plus the synchroniser's latency of up to 1 s), seconds.
+pub const LIVE_S: f64 = 5.0;
+/// A latched alarm is repeated this often, seconds.
+pub const ALARM_REPEAT_S: f64 = 1.0;
+
+/// What the device is doing, in the priority the status frame reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum State {
+    /// Start-up: a strategy is still learning (the receiver settling, the car's scale and gyro
+    /// bias being learnt).
+    Learning = 0,
+    /// Every strategy with inputs runs.
+    Running = 1,
+    /// Some strategy lacks its inputs (a vehicle signal stale or missing).
+    Degraded = 2,
+    /// The alarm is latched.
+    Alarm = 3,
+    /// No GNSS fix for more than [`BLIND_AFTER_S`]: nothing can be judged.
+    Blind = 4,
+}
+
+impl State {
+    pub fn from_u8(x: u8) -> Option<State> {
+        Some(match x {
+            0 => State::Learning,
+            1 => State::Running,
+            2 => State::Degraded,
+            3 => State::Alarm,
+            4 => State::Blind,
+            _ => return None,
+        })
+    }
+    pub const fn name(self) -> &'static str {
+        match self {
+            State::Learning => "learning",
+            State::Running => "running",
+            State::Degraded => "degraded",
+            State::Alarm => "alarm",
+            State::Blind => "blind",
+        }
+    }
+}
+
+/// Start-up faults (status page 2, `FAULTS`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Faults(pub u8);
+
+impl Faults {
+    pub const CAN_START: u8 = 1;
+    pub const UART_START: u8 = 2;
+    pub const MODEL_INVALID: u8 = 4;
+    pub const TEMPLATES_INVALID: u8 = 8;
+    pub fn set(&mut self, bit: u8) {
+        self.0 |= bit;
+    }
+}
+
+/// Why the device last reset (status page 2, `RESET_CAUSE`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ResetCause {
+    #[default]
+    PowerOn = 0,
+    IndependentWatchdog = 1,
+    WindowWatchdog = 2,
+    Software = 3,
+    Pin = 4,
+    LowPower = 5,
+    Unknown = 15,
+}
+
+/// Counters of things that went wrong outside the detector. Each saturates at `u32::MAX` (and
+/// at its field's width on the wire).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    pub can_dropped: u32,
+    pub can_overruns: u32,
+    pub nmea_errors: u32,
+    pub alarm_retries: u32,
+    pub detector_restarts: u32,
+    pub restarts: u32,
+}
+
+/// The health of the pipeline, on the device's clock (seconds).
+#[derive(Clone, Debug, Default)]
+pub struct Health {
+    last_fix_t: Option<f64>,
+    last_epoch_t: Option<f64>,
+    epochs: u32,
+    ran: StrategySet,
+    degraded: StrategySet,
+    learning: bool,
+    alarm: bool,
+    next_status_t: Option<f64>,
+    last_status: Option<(f64, State)>,
+    pub faults: Faults,
+    pub reset_cause: ResetCause,
+    pub counters: Counters,
+}
+
+/// The three status frames of one period.
+pub type StatusFrames = [(u16, [u8; 8]); 3];
+
+fn put(f: &Field, d: &mut [u8; 8], v: u64, bits: u32) {
+    let max = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+    let _ = f.put_raw(d, v.min(max) as i64);
+}
+
+fn sat(v: u32, bits: u32) -> u64 {
+    (v as u64).min((1u64 << bits) - 1)
+}
+
+impl Health {
+    /// A GNSS fix was received at `now`.
+    pub fn on_fix(&mut self, now: f64) {
+        if now.is_finite() {
+            self.last_fix_t = Some(now);
+        }
+    }
+
+    /// The detector produced a verdict at `now`.
+    pub fn on_verdict(&mut self, v: &Verdict, now: f64) {
+        self.epochs = self.epochs.wrapping_add(1);
+        if now.is_finite() {
+            self.last_epoch_t = Some(now);
+        }
+        self.ran = v.ran;
+        self.degraded = v.degraded;
+        self.learning = v.learning;
+        self.alarm = v.alarm;
+        use detector_core::fusion::Reason;
+        if v.reasons.contains(Reason::TimeDiscontinuity) || v.reasons.contains(Reason::InvalidSample) {
+            self.counters.detector_restarts = self.counters.detector_restarts.saturating_add(1);
+        }
+    }
+
+    /// The latched alarm was cleared.
+    pub fn on_clear(&mut self) {
+        self.alarm = false;
+    }
+
+    pub fn epochs(&self) -> u32 {
+        self.epochs
+    }
+
+    /// Seconds since the last fix at `now`, or `None` before the first.
+    pub fn fix_age_s(&self, now: f64) -> Option<f64> {
+        self.last_fix_t.map(|t| (now - t).max(0.0))
+    }
+
+    /// The state at `now`.
+    pub fn state(&self, now: f64) -> State {
+        if self.alarm {
+            State::Alarm
+        } else if self.fix_age_s(now).is_none_or(|a| a.is_nan() || a > BLIND_AFTER_S) {
+            State::Blind
+        } else if self.learning {
+            State::Learning
+        } else if !self.degraded.is_empty() {
+            State::Degraded
+        } else {
+            State::Running
+        }
+    }
+
+    /// The detector made progress recently: an epoch within [`LIVE_S`] of `now`.
+    pub fn live(&self, now: f64) -> bool {
+        self.last_epoch_t.is_some_and(|t| now - t <= LIVE_S && now >= t)
+    }
+
+    /// The state the last status frame reported, and when.
+    pub fn last_status(&self) -> Option<(f64, State)> {
+        self.last_status
+    }
+
+    /// The status frames when one period has passed since the last ones (the first at once).
+    pub fn status_due(&mut self, now: f64) -> Option<StatusFrames> {
+        if !now.is_finite() {
+            return None;
+        }
+        match self.next_status_t {
+            // Time going backwards (a clock reset) restarts the period.
+            Some(t) if now < t && t - now <= STATUS_PERIOD_S => return None,
+            _ => {}
+        }
+        // On the period's grid (a late poll does not shift it), unless a whole period was missed.
+        self.next_status_t = Some(match self.next_status_t {
+            Some(t) if now >= t && now - t < STATUS_PERIOD_S => t + STATUS_PERIOD_S,
+            _ => now + STATUS_PERIOD_S,
+        });
+        let state = self.state(now);
+        self.last_status = Some((now, state));
+        Some(self.frames(now, state))
+    }
+
+    fn frames(&self, now: f64, state: State) -> StatusFrames {
+        let c = &self.counters;
+        let mut p0 = [0u8; 8];
+        put(&STATUS_PAGE, &mut p0, STATUS_STATE_MUX, 4);
+        put(&STATUS_STATE, &mut p0, state as u64, 4);
+        put(&STATUS_RAN, &mut p0, self.ran.0 as u64, 8);
+        put(&STATUS_DEGRADED, &mut p0, self.degraded.0 as u64, 8);
+        let age = self.fix_age_s(now).map_or(u64::MAX, |a| libm::round(a * 10.0) as u64);
+        put(&STATUS_FIX_AGE, &mut p0, age, 16);
+        put(&STATUS_EPOCHS, &mut p0, (self.epochs & 0xFF_FFFF) as u64, 24);
+        let mut p1 = [0u8; 8];
+        put(&STATUS_PAGE, &mut p1, STATUS_CAN_DROPPED_MUX, 4);
+        put(&STATUS_CAN_DROPPED, &mut p1, sat(c.can_dropped, 16), 16);
+        put(&STATUS_CAN_OVERRUNS, &mut p1, sat(c.can_overruns, 16), 16);
+        put(&STATUS_NMEA_ERRORS, &mut p1, sat(c.nmea_errors, 16), 16);
+        put(&STATUS_RESTARTS, &mut p1, sat(c.restarts, 8), 8);
+        let mut p2 = [0u8; 8];
+        put(&STATUS_PAGE, &mut p2, STATUS_FAULTS_MUX, 4);
+        put(&STATUS_FAULTS, &mut p2, self.faults.0 as u64, 8);
+        put(&STATUS_RESET_CAUSE, &mut p2, self.reset_cause as u64, 4);
+        put(&STATUS_ALARM_RETRIES, &mut p2, sat(c.alarm_retries, 16), 16);
+        put(&STATUS_DETECTOR_RESTARTS, &mut p2, sat(c.detector_restarts, 16), 16);
+        [(STATUS_ID, p0), (STATUS_ID, p1), (STATUS_ID, p2)]
+    }
+}
+
+/// A status frame decoded through the DBC's fields (what a receiver on the bus sees).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StatusPage {
+    Page0 { state: Option<State>, ran: u8, degraded: u8, fix_age_s: Option<f64>, epochs: u32 },
+    Page1 { can_dropped: u16, can_overruns: u16, nmea_errors: u16, restarts: u8 },
+    Page2 { faults: u8, reset_cause: u8, alarm_retries: u16, detector_restarts: u16 },
+}
+
+/// Decodes a status frame, or `None` for another id, a short frame or an unknown page.
+pub fn decode_status(id: u16, data: &[u8]) -> Option<StatusPage> {
+    if id != STATUS_ID {
+        return None;
+    }
+    let raw = |f: &Field| f.raw(data).map(|v| v as u64);
+    let page = raw(&STATUS_PAGE)?;
+    Some(if page == STATUS_STATE_MUX {
+        let age = raw(&STATUS_FIX_AGE)?;
+        StatusPage::Page0 {
+            state: State::from_u8(raw(&STATUS_STATE)? as u8),
+            ran: raw(&STATUS_RAN)? as u8,
+            degraded: raw(&STATUS_DEGRADED)? as u8,
+            fix_age_s: (age != 0xFFFF).then_some(age as f64 * STATUS_FIX_AGE.factor),
+            epochs: raw(&STATUS_EPOCHS)? as u32,
+        }
+    } else if page == STATUS_CAN_DROPPED_MUX {
+        StatusPage::Page1 {
+            can_dropped: raw(&STATUS_CAN_DROPPED)? as u16,
+            can_overruns: raw(&STATUS_CAN_OVERRUNS)? as u16,
+            nmea_errors: raw(&STATUS_NMEA_ERRORS)? as u16,
+            restarts: raw(&STATUS_RESTARTS)? as u8,
+        }
+    } else if page == STATUS_FAULTS_MUX {
+        StatusPage::Page2 {
+            faults: raw(&STATUS_FAULTS)? as u8,
+            reset_cause: raw(&STATUS_RESET_CAUSE)? as u8,
+            alarm_retries: raw(&STATUS_ALARM_RETRIES)? as u16,
+            detector_restarts: raw(&STATUS_DETECTOR_RESTARTS)? as u16,
+        }
+    } else {
+        return None;
+    })
+}
+
+/// When the watchdog may be fed. See the module documentation.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WatchdogGate {
+    refused: u32,
+}
+
+impl WatchdogGate {
+    /// Whether the detector loop, running at `now`, may feed the watchdog: the detector made
+    /// progress (an epoch within [`LIVE_S`]), or GNSS is silent (no fix for over
+    /// [`BLIND_AFTER_S`]) and the status frame of the last period reported it as blind.
+    pub fn may_feed(&mut self, h: &Health, now: f64) -> bool {
+        let reported_blind = h.state(now) == State::Blind
+            && h.last_status().is_some_and(|(t, s)| s == State::Blind && now >= t && now - t <= 2.0 * STATUS_PERIOD_S);
+        let ok = h.live(now) || reported_blind;
+        if !ok {
+            self.refused = self.refused.saturating_add(1);
+        }
+        ok
+    }
+    /// Calls that refused to feed.
+    pub fn refused(&self) -> u32 {
+        self.refused
+    }
+}
+
+/// The content of an alarm frame (`GNSS_GUARD_ALARM`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AlarmFrame {
+    pub alarm: bool,
+    pub fired: u8,
+    pub degraded: u8,
+    pub reasons: u16,
+    /// Epoch of the earliest verdict merged in (24 bits on the wire).
+    pub epoch: u32,
+}
+
+impl AlarmFrame {
+    pub fn of(v: &Verdict) -> Self {
+        AlarmFrame { alarm: v.alarm, fired: v.fired.0, degraded: v.degraded.0, reasons: v.reasons.0, epoch: v.epoch }
+    }
+    /// `self` with `newer` merged in: nothing either says is lost.
+    pub fn merge(self, newer: AlarmFrame) -> Self {
+        AlarmFrame {
+            alarm: self.alarm || newer.alarm,
+            fired: self.fired | newer.fired,
+            degraded: newer.degraded,
+            reasons: self.reasons | newer.reasons,
+            epoch: self.epoch,
+        }
+    }
+    pub fn encode(&self) -> (u16, [u8; 8]) {
+        let mut d = [0u8; 8];
+        put(&ALARM_ALARM, &mut d, self.alarm as u64, 1);
+        put(&ALARM_FIRED, &mut d, self.fired as u64, 8);
+        put(&ALARM_DEGRADED, &mut d, self.degraded as u64, 8);
+        put(&ALARM_REASONS, &mut d, self.reasons as u64, 16);
+        put(&ALARM_EPOCH, &mut d, (self.epoch & 0xFF_FFFF) as u64, 24);
+        (ALARM_ID, d)
+    }
+    pub fn decode(id: u16, data: &[u8]) -> Option<Self> {
+        if id != ALARM_ID {
+            return None;
+        }
+        let raw = |f: &Field| f.raw(data).map(|v| v as u64);
+        Some(AlarmFrame {
+            alarm: raw(&ALARM_ALARM)? != 0,
+            fired: raw(&ALARM_FIRED)? as u8,
+            degraded: raw(&ALARM_DEGRADED)? as u8,
+            reasons: raw(&ALARM_REASONS)? as u16,
+            epoch: raw(&ALARM_EPOCH)? as u32,
+        })
+    }
+}
+
+/// Alarm frames waiting for the CAN transmitter. See the module documentation.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AlarmOutbox {
+    pending: Option<AlarmFrame>,
+    latched: Option<AlarmFrame>,
+    last_sent_t: Option<f64>,
+    /// Frames merged into one not yet sent.
+    pub merged: u32,
+    /// Frames the transmitter could not take at once (retried).
+    pub retries: u32,
+    /// Frames handed to the transmitter.
+    pub sent: u32,
+}
+
+impl AlarmOutbox {
+    /// Every verdict: a strategy fired, or the alarm latched, makes a frame.
+    pub fn on_verdict(&mut self, v: &Verdict) {
+        let f = AlarmFrame::of(v);
+        if !v.fired.is_empty() || (v.alarm && self.latched.is_none()) {
+            self.pending = Some(match self.pending {
+                Some(p) => {
+                    self.merged = self.merged.saturating_add(1);
+                    p.merge(f)
+                }
+                None => f,
+            });
+        }
+        if v.alarm {
+            self.latched = Some(self.latched.map_or(f, |l| l.merge(f)));
+        }
+    }
+
+    /// The frame to send at `now`: a pending one, else the latched alarm once per
+    /// [`ALARM_REPEAT_S`]. Hand it to the transmitter, then report [`AlarmOutbox::sent`] or
+    /// [`AlarmOutbox::failed`].
+    pub fn next(&mut self, now: f64) -> Option<AlarmFrame> {
+        if let Some(p) = self.pending.take() {
+            return Some(p);
+        }
+        let l = self.latched?;
+        let due = self.last_sent_t.is_none_or(|t| now < t || now - t >= ALARM_REPEAT_S || (now - t).is_nan());
+        due.then_some(AlarmFrame { fired: 0, ..l })
+    }
+
+    /// The transmitter took the frame at `now`.
+    pub fn sent(&mut self, now: f64) {
+        self.sent = self.sent.saturating_add(1);
+        self.last_sent_t = Some(now);
+    }
+
+    /// The transmitter could not take `f`: it goes back, merged with anything newer.
+    pub fn failed(&mut self, f: AlarmFrame) {
+        self.retries = self.retries.saturating_add(1);
+        self.pending = Some(match self.pending {
+            Some(p) => f.merge(p),
+            None => f,
+        });
+    }
+
+    /// The clear request: the latch and anything pending are dropped.
+    pub fn clear(&mut self) {
+        self.pending = None;
+        self.latched = None;
+    }
+
+    pub fn latched(&self) -> bool {
+        self.latched.is_some()
+    }
+}
+
+/// A frame for the CAN transmitter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TxFrame {
+    Alarm(AlarmFrame),
+    Status((u16, [u8; 8])),
+}
+
+impl TxFrame {
+    pub fn encode(&self) -> (u16, [u8; 8]) {
+        match self {
+            TxFrame::Alarm(a) => a.encode(),
+            TxFrame::Status(f) => *f,
+        }
+    }
+}
+
+/// Frames waiting for the CAN transmitter task (the detector task fills it, the transmitter
+/// empties it): the alarm before the status pages. A newer alarm merges into a queued one;
+/// newer status frames replace older ones (they carry fresher numbers); a frame the
+/// transmitter could not take goes back, the alarm merged with anything newer.
+#[derive(Clone, Debug)]
+pub struct TxQueue {
+    alarm: Option<AlarmFrame>,
+    status: heapless::Deque<(u16, [u8; 8]), 3>,
+    /// Status frames replaced before they were sent.
+    pub status_replaced: u32,
+    /// Alarm frames that went back (the mailboxes were full).
+    pub alarm_retries: u32,
+}
+
+impl TxQueue {
+    pub const fn new() -> Self {
+        TxQueue { alarm: None, status: heapless::Deque::new(), status_replaced: 0, alarm_retries: 0 }
+    }
+    pub fn push_alarm(&mut self, f: AlarmFrame) {
+        self.alarm = Some(self.alarm.map_or(f, |q| q.merge(f)));
+    }
+    pub fn push_status(&mut self, frames: StatusFrames) {
+        self.status_replaced = self.status_replaced.saturating_add(self.status.len() as u32);
+        self.status.clear();
+        for f in frames {
+            let _ = self.status.push_back(f);
+        }
+    }
+    /// The next frame to transmit.
+    pub fn pop(&mut self) -> Option<TxFrame> {
+        if let Some(a) = self.alarm.take() {
+            return Some(TxFrame::Alarm(a));
+        }
+        self.status.pop_front().map(TxFrame::Status)
+    }
+    /// The transmitter could not take `f`.
+    pub fn give_back(&mut self, f: TxFrame) {
+        match f {
+            TxFrame::Alarm(a) => {
+                self.alarm_retries = self.alarm_retries.saturating_add(1);
+                self.alarm = Some(self.alarm.map_or(a, |newer| a.merge(newer)));
+            }
+            TxFrame::Status(s) => {
+                if self.status.is_full() {
+                    self.status_replaced = self.status_replaced.saturating_add(1);
+                } else {
+                    let _ = self.status.push_front(s);
+                }
+            }
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.alarm.is_none() && self.status.is_empty()
+    }
+}
+
+impl Default for TxQueue {
+    fn default() -> Self {
+        TxQueue::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use detector_core::fusion::{Reasons, Verdict};
+    use detector_core::strategy::StrategyId;
+
+    fn verdict(epoch: u32, fired: Option<StrategyId>, alarm: bool) -> Verdict {
+        let mut v = Verdict {
+            epoch,
+            t: epoch as f64 * 0.1,
+            ran: StrategySet::EMPTY,
+            fired: StrategySet::EMPTY,
+            degraded: StrategySet::EMPTY,
+            reasons: Reasons::default(),
+            shift: None,
+            motion: None,
+            turn: None,
+            cusum_m: None,
+            residual_window_m: None,
+            speed_diff_mps: None,
+            heading_diff_deg: None,
+            learning: false,
+            alarm,
+            first_alarm: None,
+        };
+        v.ran.insert(StrategyId::LocationShift);
+        v.ran.insert(StrategyId::Motion);
+        if let Some(s) = fired {
+            v.fired.insert(s);
+        }
+        v
+    }
+
+    #[test]
+    fn status_frames_round_trip_through_the_dbc_fields() {
+        let mut h = Health::default();
+        h.on_fix(10.0);
+        h.on_verdict(&verdict(7, None, false), 10.05);
+        h.counters.can_dropped = 70_000;
+        h.counters.nmea_errors = 12;
+        h.faults.set(Faults::UART_START);
+        h.reset_cause = ResetCause::IndependentWatchdog;
+        let f = h.status_due(10.5).unwrap();
+        assert!(h.status_due(11.0).is_none(), "one period between status frames");
+        assert!(h.status_due(11.5).is_some());
+        match decode_status(f[0].0, &f[0].1).unwrap() {
+            StatusPage::Page0 { state, ran, fix_age_s, epochs, .. } => {
+                assert_eq!(state, Some(State::Running));
+                assert_eq!(ran, 0b101);
+                assert!((fix_age_s.unwrap() - 0.5).abs() < 1e-9);
+                assert_eq!(epochs, 1);
+            }
+            p => panic!("{p:?}"),
+        }
+        assert_eq!(decode_status(f[1].0, &f[1].1), Some(StatusPage::Page1 { can_dropped: 0xFFFF, can_overruns: 0, nmea_errors: 12, restarts: 0 }));
+        assert_eq!(decode_status(f[2].0, &f[2].1), Some(StatusPage::Page2 { faults: Faults::UART_START, reset_cause: 1, alarm_retries: 0, detector_restarts: 0 }));
+        assert_eq!(decode_status(f[0].0, &f[0].1[..3]), None, "a short frame decodes to nothing, no panic");
+    }
+
+    #[test]
+    fn states_in_priority_order() {
+        let mut h = Health::default();
+        assert_eq!(h.state(0.0), State::Blind, "no fix yet");
+        h.on_fix(1.0);
+        let mut v = verdict(1, None, false);
+        v.learning = true;
+        h.on_verdict(&v, 1.0);
+        assert_eq!(h.state(1.5), State::Learning);
+        v.learning = false;
+        v.degraded.insert(StrategyId::Turn);
+        h.on_verdict(&v, 2.0);
+        assert_eq!(h.state(2.5), State::Degraded);
+        assert_eq!(h.state(10.0), State::Blind, "fixes stopped 9 s ago");
+        h.on_verdict(&verdict(3, Some(StrategyId::Motion), true), 10.0);
+        assert_eq!(h.state(10.0), State::Alarm, "the alarm outranks blindness");
+        h.on_clear();
+        assert_eq!(h.state(10.0), State::Blind);
+    }
+
+    #[test]
+    fn the_watchdog_is_fed_only_on_progress_or_reported_blindness() {
+        let mut h = Health::default();
+        let mut g = WatchdogGate::default();
+        // Power-up, nothing yet: blind, but not fed until a status frame said so.
+        assert!(!g.may_feed(&h, 0.5));
+        assert!(h.status_due(0.5).is_some());
+        assert!(g.may_feed(&h, 0.6), "blind and reported");
+        // Fixes and epochs: fed.
+        for k in 0..50 {
+            let t = 1.0 + k as f64 * 0.1;
+            h.on_fix(t);
+            h.on_verdict(&verdict(k, None, false), t + 0.01);
+            let _ = h.status_due(t);
+            assert!(g.may_feed(&h, t + 0.02));
+        }
+        // Fixes keep arriving but the pipeline stops producing epochs: a stall. Fed until the
+        // last epoch is LIVE_S old, then refused (the watchdog resets the device).
+        let mut refused_at = None;
+        for k in 0..100 {
+            let t = 6.0 + k as f64 * 0.1;
+            h.on_fix(t);
+            let _ = h.status_due(t);
+            if !g.may_feed(&h, t) && refused_at.is_none() {
+                refused_at = Some(t);
+            }
+        }
+        let r = refused_at.expect("a stalled pipeline must not feed the watchdog");
+        assert!((r - (5.91 + LIVE_S)).abs() < 0.15, "{r}");
+        // GNSS silent instead: blind, reported every period, fed throughout.
+        let mut h = Health::default();
+        h.on_fix(1.0);
+        h.on_verdict(&verdict(1, None, false), 1.0);
+        let mut g = WatchdogGate::default();
+        for k in 0..600 {
+            let t = 1.0 + k as f64 * 0.1;
+            let _ = h.status_due(t);
+            assert!(g.may_feed(&h, t), "t {t}: silent GNSS reported as blind must keep the watchdog fed");
+        }
+        // Blind but the status frames stopped (their sender hangs): refused.
+        assert!(!g.may_feed(&h, 70.0));
+    }
+
+    #[test]
+    fn alarm_frames_are_merged_retried_repeated_and_cleared_only_on_request() {
+        let mut o = AlarmOutbox::default();
+        o.on_verdict(&verdict(10, None, false));
+        assert_eq!(o.next(1.0), None, "nothing fired, nothing latched");
+        o.on_verdict(&verdict(11, Some(StrategyId::LocationShift), true));
+        o.on_verdict(&verdict(12, Some(StrategyId::Motion), true));
+        // Two frames before the transmitter got one: merged, nothing lost.
+        let f = o.next(1.1).unwrap();
+        assert_eq!((f.alarm, f.fired, f.epoch), (true, 0b101, 11));
+        assert_eq!(o.merged, 1);
+        // The transmitter's mailboxes are full: it comes back, merged with what came since.
+        o.failed(f);
+        o.on_verdict(&verdict(13, Some(StrategyId::Heading), true));
+        let f = o.next(1.2).unwrap();
+        assert_eq!((f.fired, f.epoch), (0b100101, 11));
+        assert_eq!(o.retries, 1);
+        o.sent(1.2);
+        // Latched: repeated once a second, not more often.
+        assert_eq!(o.next(1.5), None);
+        let r = o.next(2.2).unwrap();
+        assert!(r.alarm && r.fired == 0);
+        o.sent(2.2);
+        assert_eq!(o.next(2.5), None);
+        assert!(o.next(3.3).is_some());
+        // Round trip through the DBC fields.
+        let (id, d) = f.encode();
+        assert_eq!(AlarmFrame::decode(id, &d), Some(f));
+        // Only the clear request ends it.
+        let mut q = TxQueue::default();
+        q.push_status(Health::default().status_due(0.0).unwrap());
+        q.push_alarm(AlarmFrame { alarm: true, fired: 1, degraded: 0, reasons: 1, epoch: 5 });
+        // The alarm goes first; when the mailboxes are full it comes back merged with a newer one.
+        let first = q.pop().unwrap();
+        assert!(matches!(first, TxFrame::Alarm(_)));
+        q.push_alarm(AlarmFrame { alarm: true, fired: 4, degraded: 0, reasons: 4, epoch: 6 });
+        q.give_back(first);
+        assert_eq!(q.pop(), Some(TxFrame::Alarm(AlarmFrame { alarm: true, fired: 5, degraded: 0, reasons: 5, epoch: 5 })));
+        assert_eq!(q.alarm_retries, 1);
+        for _ in 0..3 {
+            assert!(matches!(q.pop(), Some(TxFrame::Status(_))));
+        }
+        assert!(q.is_empty());
+        o.clear();
+        assert_eq!(o.next(10.0), None);
+        assert!(!o.latched());
+    }
+}
