@@ -50,7 +50,7 @@ pub fn can(data: &[u8]) {
         t += (rec[0] % 16) as f64 * 0.003;
         p.on_can(t, pid, payload, &mut |_| {});
     }
-    p.finish(&mut |_| {});
+    p.finish(t, &mut |_| {});
 }
 
 fn scratch(name: &str) -> PathBuf {
@@ -225,11 +225,49 @@ pub fn detector(data: &[u8]) {
     sync.flush(&mut |x| { d.step(x); });
 }
 
+/// Epochs of a `long_horizon` run: states that take minutes of driving to build are reached.
+pub const LONG_HORIZON_EPOCHS: usize = 20_000;
+
+/// A random-walk drive programmed by the input (`crate::walk`: legs of cruising, long bends,
+/// turns, stops, GNSS gaps, rate changes, time jumps, faults, spoofing, cycled) for 20,000
+/// epochs, into the whole detector (kinematic predictor, all strategies) directly and behind
+/// the synchroniser. The LSTM's kernels are the `lstm_blob` target's; 20,000 LSTM steps per
+/// input would leave the fuzzer a few executions a second.
+pub fn long_horizon(data: &[u8]) {
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let profile = if data.first().is_some_and(|b| b & 0x80 != 0) { &UBLOX_10HZ } else { &LOGGER_1HZ };
+    let cfg = Config::for_profile(profile);
+    let mut direct = Detector::new(cfg, KinematicPredictor::default()).with_turns(set);
+    let mut synced = Detector::new(cfg, KinematicPredictor::default()).with_turns(set);
+    let mut sync = Synchronizer::new(SyncConfig::default());
+    let mut walk = crate::walk::Walk::from_bytes(data);
+    let check = |v: &detector_core::fusion::Verdict| {
+        assert_eq!(v.ran.0 & v.degraded.0, 0);
+        assert_eq!(v.fired.0 & !v.ran.0, 0);
+        if let Some(o) = v.turn.filter(|o| o.steering != turn::TurnClass::None) {
+            assert!(o.end_t - o.start_t <= turn::MAX_SEGMENT as f64 * 0.2 + 1e-6, "{o:?}");
+        }
+    };
+    for _ in 0..LONG_HORIZON_EPOCHS {
+        let e = walk.next_epoch();
+        for &(sig, t, v) in &e.obs {
+            sync.push_obs(sig, t, v, &mut |s| check(&synced.step(s)));
+        }
+        if let Some(f) = e.fix {
+            sync.push_fix(f, &mut |s| check(&synced.step(s)));
+        }
+        if let Some(s) = e.sample {
+            check(&direct.step(&s));
+        }
+    }
+    sync.flush(&mut |s| check(&synced.step(s)));
+}
+
 /// A fuzz harness.
 pub type Harness = fn(&[u8]);
 
 /// All harnesses by name (the fuzz targets and the corpus replay use the same names).
-pub const TARGETS: [(&str, Harness); 10] = [
+pub const TARGETS: [(&str, Harness); 11] = [
     ("nmea", nmea),
     ("can", can),
     ("drive_csv", drive_csv),
@@ -240,4 +278,5 @@ pub const TARGETS: [(&str, Harness); 10] = [
     ("lstm_blob", lstm_blob),
     ("replay_input", replay_input),
     ("detector", detector),
+    ("long_horizon", long_horizon),
 ];
