@@ -2,7 +2,7 @@
 
 use crate::attack::AttackKind;
 use crate::eval::{Report, Scenario};
-use crate::output::{render_atomic, write_atomic};
+use crate::output::write_atomic;
 use detector_core::geo::{to_local, EARTH_RADIUS_PAPER_M};
 use detector_core::strategy::StrategyId;
 use plotters::prelude::*;
@@ -261,24 +261,41 @@ fn figures(r: &Report, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
             }
             if tbt {
                 let p = dir.join(format!("{}-residual.{ext}", sc.id));
-                render_atomic(&p, |tmp| residual_plot(sc, tmp, ext)).map_err(anyhow::Error::msg)?;
+                let bytes = residual_plot(sc, ext).map_err(anyhow::Error::msg)?;
+                write_atomic(&p, |w| w.write_all(&bytes))?;
                 out.push(p);
             }
             let p = dir.join(format!("{}-track.{ext}", sc.id));
-            render_atomic(&p, |tmp| track_plot(sc, tmp, ext)).map_err(anyhow::Error::msg)?;
+            let bytes = track_plot(sc, ext).map_err(anyhow::Error::msg)?;
+            write_atomic(&p, |w| w.write_all(&bytes))?;
             out.push(p);
         }
     }
     Ok(out)
 }
 
-fn residual_plot(sc: &Scenario, path: &Path, ext: &str) -> Result<(), String> {
-    let size = (900, 500);
+/// A figure drawn in memory: SVG text, or an RGB bitmap encoded as PNG. Nothing touches the
+/// disk until the whole file exists ([`write_atomic`]).
+fn render(size: (u32, u32), ext: &str, svg: impl FnOnce(SVGBackend) -> Result<(), String>, bmp: impl FnOnce(BitMapBackend) -> Result<(), String>) -> Result<Vec<u8>, String> {
     if ext == "svg" {
-        residual_draw(sc, SVGBackend::new(path, size).into_drawing_area())
-    } else {
-        residual_draw(sc, BitMapBackend::new(path, size).into_drawing_area())
+        let mut s = String::new();
+        svg(SVGBackend::with_string(&mut s, size))?;
+        return Ok(s.into_bytes());
     }
+    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    bmp(BitMapBackend::with_buffer(&mut rgb, size))?;
+    let mut out = Vec::new();
+    let mut enc = png::Encoder::new(&mut out, size.0, size.1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().map_err(|e| e.to_string())?;
+    w.write_image_data(&rgb).map_err(|e| e.to_string())?;
+    w.finish().map_err(|e| e.to_string())?;
+    Ok(out)
+}
+
+fn residual_plot(sc: &Scenario, ext: &str) -> Result<Vec<u8>, String> {
+    render((900, 500), ext, |b| residual_draw(sc, b.into_drawing_area()), |b| residual_draw(sc, b.into_drawing_area()))
 }
 
 fn residual_draw<DB: DrawingBackend>(sc: &Scenario, root: DrawingArea<DB, plotters::coord::Shift>) -> Result<(), String>
@@ -308,13 +325,8 @@ where
     root.present().map_err(e)
 }
 
-fn track_plot(sc: &Scenario, path: &Path, ext: &str) -> Result<(), String> {
-    let size = (700, 700);
-    if ext == "svg" {
-        track_draw(sc, SVGBackend::new(path, size).into_drawing_area())
-    } else {
-        track_draw(sc, BitMapBackend::new(path, size).into_drawing_area())
-    }
+fn track_plot(sc: &Scenario, ext: &str) -> Result<Vec<u8>, String> {
+    render((700, 700), ext, |b| track_draw(sc, b.into_drawing_area()), |b| track_draw(sc, b.into_drawing_area()))
 }
 
 fn track_draw<DB: DrawingBackend>(sc: &Scenario, root: DrawingArea<DB, plotters::coord::Shift>) -> Result<(), String>
