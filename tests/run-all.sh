@@ -21,13 +21,25 @@ if grep -rnE 'extern crate (alloc|std)|alloc::' detector-core/src; then
   echo "detector-core must not use alloc or std" >&2; exit 1
 fi
 cargo build -q -p detector-core --target thumbv7em-none-eabihf --release
-echo "== firmware images (embassy STM32F405RG, and the QEMU image)"
-(cd firmware && cargo clippy -q --release -- -D warnings && cargo build -q --release)
+echo "== firmware images (embassy STM32F405RG, the QEMU image, the no-panic proof)"
+(cd firmware && cargo clippy -q --release -- -D warnings)
+echo "== no-panic proof: the per-epoch path linked with panic-never (the link fails on any panic path)"
+if ! (cd firmware && cargo build -q --release -p nopanic); then
+  echo "panic paths survive in the per-epoch path; where:" >&2
+  (cd firmware && cargo build -q --release -p nopanic --features find-panics) &&
+    python3 tests/nopanic-report.py firmware/target/thumbv7em-none-eabihf/release/nopanic >&2
+  exit 1
+fi
+echo "no panic path in the per-epoch path (nopanic links with panic-never)"
+(cd firmware && cargo build -q --release)
 bash tests/size-report.sh
 
 echo "== QEMU Cortex-M run of the real pipeline, and the same input on the host"
 qemu_out=$(cd firmware && cargo run -q --release -p qemu-run)
 echo "$qemu_out"
+if [ "${CI:-}" = true ] && ! echo "$qemu_out" | grep -q '^input: REAL drive'; then
+  echo "CI=true: the QEMU run must replay the real comma2k19 segment, not the simulated fallback" >&2; exit 1
+fi
 host_out=$(cargo run -q --release -p host-sim -- digest)
 echo "$host_out" | tail -1
 q=$(echo "$qemu_out" | grep '^verdict digest:')
