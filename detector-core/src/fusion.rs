@@ -13,11 +13,13 @@
 
 use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
-use crate::strategy::location_shift::{ShiftConfig, ShiftOutcome, ShiftPredictor};
+use crate::strategy::consistency::{ConsistencyConfig, HeadingCheck, ResidualCusum, SpeedCheck};
+use crate::strategy::location_shift::judge::{ShiftConfig, ShiftOutcome, ShiftPredictor};
+use crate::strategy::location_shift::predictor::Predictor;
 use crate::strategy::motion::{Disagreement, Motion, MotionConfig, MotionOutcome};
-use crate::strategy::consistency::{ConsistencyConfig, HeadingCheck, ResidualCusum, SpeedCheck, HEADING_TOL_REL, WINDOW_S};
-use crate::strategy::turn::{TemplateSet, TurnConfig, TurnOutcome, TurnStep, TurnStrategy};
+use crate::strategy::turn::strategy::{TurnConfig, TurnOutcome, TurnStep, TurnStrategy};
 use crate::strategy::{StrategyId, StrategySet};
+use crate::wire::templates::TemplateSet;
 
 /// All tuning of the detector, with documented defaults ([`Config::for_profile`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,47 +31,19 @@ pub struct Config {
 }
 
 impl Config {
-    /// The configuration for a receiver profile: its GNSS error term and the kinematic
-    /// predictor's measured maximum error at its rate; motion thresholds are common.
+    /// The configuration for a receiver profile: every strategy's own for it (strategy 1 with
+    /// the kinematic predictor's error term).
     pub fn for_profile(p: &ReceiverProfile) -> Self {
         Config {
-            shift: ShiftConfig {
-                predictor_error_m: p.kinematic_max_error_m,
-                fallback_error_m: p.kinematic_max_error_m,
-                gnss_error_m: p.gnss_error_m,
-                nominal_dt_s: p.nominal_dt_s,
-                max_dt_s: 3.0,
-                settle_s: 5.0,
-            },
-            motion: MotionConfig {
-                wheel_stop_mps: 0.3,
-                wheel_move_mps: 1.0,
-                gnss_stop_mps: p.gnss_speed_stop_mps,
-                gnss_move_mps: p.gnss_speed_move_mps,
-                pos_stop_mps: p.pos_speed_stop_mps,
-                pos_move_mps: p.pos_speed_move_mps,
-                persist_s: 3.0,
-            },
+            shift: ShiftConfig::for_profile(p),
+            motion: MotionConfig::for_profile(p),
             turn: TurnConfig::default(),
-            consistency: ConsistencyConfig {
-                enabled: true,
-                cusum_k_m: p.cusum_k_m,
-                cusum_h_m: p.cusum_h_m,
-                window_h_m: p.window_h_m,
-                scale_tau_s: 120.0,
-                warmup_s: 30.0,
-                speed_tol_mps: p.speed_tol_mps,
-                speed_tol_rel: 0.03,
-                window_s: WINDOW_S,
-                heading_tol_deg: p.heading_tol_deg,
-                heading_tol_rel: HEADING_TOL_REL,
-                min_speed_mps: 5.0,
-            },
+            consistency: ConsistencyConfig::for_profile(p),
         }
     }
 
     /// [`Config::for_profile`] with strategy 1's error term of this predictor.
-    pub fn for_predictor(p: &ReceiverProfile, predictor: &crate::strategy::location_shift::Predictor) -> Self {
+    pub fn for_predictor(p: &ReceiverProfile, predictor: &Predictor) -> Self {
         let mut c = Config::for_profile(p);
         c.shift.predictor_error_m = predictor.error_term_m(p);
         c
@@ -311,14 +285,14 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             first_alarm: self.first_alarm,
         };
         let has_turn = self.turn.is_some();
-        let extra = self.cfg.consistency.enabled;
+        let consistency_on = self.cfg.consistency.enabled;
         let all_degraded = |v: &mut Verdict| {
             v.degraded.insert(StrategyId::LocationShift);
             v.degraded.insert(StrategyId::Motion);
             if has_turn {
                 v.degraded.insert(StrategyId::Turn);
             }
-            if extra {
+            if consistency_on {
                 v.degraded.insert(StrategyId::ResidualCusum);
                 v.degraded.insert(StrategyId::Speed);
                 v.degraded.insert(StrategyId::Heading);
@@ -370,7 +344,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                     v.reasons.insert(if o.residual_m > 0.0 { Reason::ShiftExceedsPrediction } else { Reason::ShiftBelowPrediction });
                 }
                 v.shift = Some(o);
-                if extra {
+                if consistency_on {
                     let wheel = s.wheel_speed().get().unwrap_or(0.0);
                     let r = self.cusum.step(&self.cfg.consistency, shift, pred, s.dt_s, wheel);
                     v.ran.insert(StrategyId::ResidualCusum);
@@ -389,7 +363,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             }
             (shift, pred) => {
                 v.degraded.insert(StrategyId::LocationShift);
-                if extra {
+                if consistency_on {
                     v.degraded.insert(StrategyId::ResidualCusum);
                 }
                 if pred.is_none() {
@@ -441,7 +415,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         }
 
         // Beyond the paper: speed and heading consistency.
-        if extra {
+        if consistency_on {
             let c = self.cfg.consistency;
             match self.speed.step(&c, s) {
                 Some(o) => {

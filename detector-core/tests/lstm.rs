@@ -4,7 +4,7 @@
 
 use detector_core::sample::Sample;
 use detector_core::strategy::location_shift::ShiftPredictor;
-use detector_core::strategy::lstm::*;
+use detector_core::strategy::location_shift::lstm::*;
 
 /// A small deterministic model (weights from a fixed LCG) as both blob kinds.
 fn test_blobs(h1: usize, h2: usize) -> (Vec<u8>, Vec<u8>) {

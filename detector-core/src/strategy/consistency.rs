@@ -24,6 +24,7 @@
 //! survive a `restart` (a short gap, a missing input); only a `reset` forgets them. Each detector
 //! is degraded (never alarms) without its inputs.
 
+use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 use heapless::Deque;
 
@@ -49,6 +50,26 @@ pub struct ConsistencyConfig {
     /// error, and the integration error of a yaw rate sampled at the GNSS epochs).
     pub heading_tol_rel: f32,
     pub min_speed_mps: f32,
+}
+
+impl ConsistencyConfig {
+    /// The configuration for a receiver profile: its measured thresholds, the common rest.
+    pub fn for_profile(p: &ReceiverProfile) -> Self {
+        ConsistencyConfig {
+            enabled: true,
+            cusum_k_m: p.cusum_k_m,
+            cusum_h_m: p.cusum_h_m,
+            window_h_m: p.window_h_m,
+            scale_tau_s: 120.0,
+            warmup_s: 30.0,
+            speed_tol_mps: p.speed_tol_mps,
+            speed_tol_rel: 0.03,
+            window_s: WINDOW_S,
+            heading_tol_deg: p.heading_tol_deg,
+            heading_tol_rel: HEADING_TOL_REL,
+            min_speed_mps: 5.0,
+        }
+    }
 }
 
 /// The default window of the moving sums: the 10 s within which stealthy spoofing should be

@@ -1,18 +1,17 @@
 //! The detection strategies. Each consumes synchronised [`Sample`](crate::sample::Sample)s,
 //! one per GNSS epoch, and reports whether it ran, whether it fired, and why.
 //!
-//! - [`location_shift`]: strategy 1, GNSS location shift vs a predicted shift.
-//! - [`lstm`]: strategy 1's learned predictor (the paper's LSTM), f32 reference and integer kernels.
+//! - [`location_shift`]: strategy 1, GNSS location shift vs a predicted shift (kinematic, or the
+//!   paper's LSTM with its f32 reference and integer kernels).
+//! - [`turn`]: strategy 2, steering turns (segmenter, k-NN with exact banded DTW) vs GNSS turns.
 //! - [`motion`]: strategy 3, standstill vs motion from the wheels and from GNSS.
-//!
 //! - [`consistency`]: beyond the paper, for stealthy spoofing: residual CUSUM, speed and
 //!   heading consistency.
-//! - [`turn`]: strategy 2, steering turns (k-NN with exact banded DTW, [`dtw`]) vs GNSS turns.
+//!
+//! No strategy depends on another; [`crate::fusion`] combines them.
 
 pub mod consistency;
-pub mod dtw;
 pub mod location_shift;
-pub mod lstm;
 pub mod motion;
 pub mod turn;
 

@@ -12,6 +12,7 @@
 //!   position, the *overshoot* attack. (A crawl slower than that threshold is below the GNSS
 //!   noise floor and is not judged.)
 
+use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,6 +38,21 @@ pub struct MotionConfig {
     pub pos_move_mps: f32,
     /// How long the two must disagree before the strategy fires, seconds.
     pub persist_s: f32,
+}
+
+impl MotionConfig {
+    /// The configuration for a receiver profile: its GNSS speed thresholds, common wheel ones.
+    pub fn for_profile(p: &ReceiverProfile) -> Self {
+        MotionConfig {
+            wheel_stop_mps: 0.3,
+            wheel_move_mps: 1.0,
+            gnss_stop_mps: p.gnss_speed_stop_mps,
+            gnss_move_mps: p.gnss_speed_move_mps,
+            pos_stop_mps: p.pos_speed_stop_mps,
+            pos_move_mps: p.pos_speed_move_mps,
+            persist_s: 3.0,
+        }
+    }
 }
 
 /// Which way the two sources disagree.

@@ -1,0 +1,9 @@
+//! The interface of an LSTM kernel: one step on normalised inputs, state carried.
+
+use crate::wire::model::{LstmModel, N_IN};
+
+/// One LSTM step on normalised inputs, returning the normalised output.
+pub trait LstmKernel {
+    fn reset(&mut self);
+    fn step(&mut self, m: &LstmModel, x: [f32; N_IN]) -> f32;
+}

@@ -1,0 +1,391 @@
+//! Strategy 2 itself: 5 Hz ticks from the epochs, the judgement of a segment (steering's class
+//! by k-NN, the course change GNSS and the bicycle model say), and the GNSS-only heading check
+//! (GNSS turns while the wheel stays straight). See the [module documentation](super).
+
+use super::dtw::resample;
+use super::knn::classify;
+use super::segmenter::{SegEvent, SegmentRule, Segmenter, Tick, MAX_SEGMENT, TICK_S};
+use crate::geo::{haversine_m, initial_bearing_deg, LatLon, EARTH_RADIUS_PAPER_M};
+use crate::sample::Sample;
+use crate::vehicle::Bicycle;
+use crate::wire::templates::{TemplateSet, TurnClass, QUERY_LEN};
+
+/// The default templates, made by `host-sim train turns --data ../shared/data --out
+/// detector-core/models/turn_templates.bin` (seed 1) from real and simulated drives. They stay
+/// in flash; [`TemplateSet::parse`] validates them in place.
+pub static DEFAULT_TEMPLATES: &[u8] = include_bytes!("../../../models/turn_templates.bin");
+
+/// The heading check also wants the wheel straight this long before its window, seconds.
+const HEADING_MARGIN_S: f32 = 2.0;
+
+/// What the strategy keeps of the previous sample, to interpolate the ticks up to the next.
+#[derive(Clone, Copy, Debug)]
+struct LastSample {
+    t: f64,
+    steer: f32,
+    heading: f32,
+    speed: f32,
+}
+
+/// Tuning of strategy 2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TurnConfig {
+    /// |steering wheel angle| that starts a segment, degrees.
+    pub start_deg: f32,
+    /// |steering wheel angle| below which the wheel is straight, degrees.
+    pub settle_deg: f32,
+    /// Shortest segment, 5 Hz ticks.
+    pub min_ticks: usize,
+    /// Least travel over a segment for it to be judged, metres.
+    pub min_travel_m: f32,
+    /// GNSS course change that makes a turn, degrees.
+    pub gnss_turn_deg: f32,
+    /// GNSS course change below which the track is straight, degrees.
+    pub gnss_straight_deg: f32,
+    /// Heading check: GNSS course change beyond the steering's by more than this, degrees ...
+    pub straight_turn_deg: f32,
+    /// ... within this window, seconds.
+    pub heading_window_s: f32,
+    /// Bicycle model for the steering proxy: wheelbase, metres, and steering ratio.
+    pub wheelbase_m: f32,
+    pub steer_ratio: f32,
+    /// Below this speed the proxy and GNSS headings mean nothing, m/s.
+    pub min_speed_mps: f32,
+    /// k of k-NN.
+    pub k: usize,
+    /// Epochs further apart than this restart the strategy, seconds.
+    pub max_gap_s: f32,
+    /// Nothing is judged until this much history has built up after a (re)start, seconds (a
+    /// receiver's first headings are unsettled).
+    pub warmup_s: f32,
+    /// A measured steering angle bit-identical for this long while moving is a stuck sensor:
+    /// strategy 2 is degraded until it changes, seconds.
+    pub stuck_s: f32,
+}
+
+impl TurnConfig {
+    /// The bicycle model of the steering proxy and of the heading change the steering implies.
+    pub fn bicycle(&self) -> Bicycle {
+        Bicycle { wheelbase_m: self.wheelbase_m, steer_ratio: self.steer_ratio, min_speed_mps: self.min_speed_mps }
+    }
+    fn rule(&self) -> SegmentRule {
+        SegmentRule { start_deg: self.start_deg, settle_deg: self.settle_deg, min_ticks: self.min_ticks, warmup_s: self.warmup_s }
+    }
+}
+
+impl Default for TurnConfig {
+    fn default() -> Self {
+        TurnConfig {
+            start_deg: 60.0,
+            settle_deg: 20.0,
+            min_ticks: 5,
+            min_travel_m: 15.0,
+            gnss_turn_deg: 60.0,
+            gnss_straight_deg: 10.0,
+            straight_turn_deg: 60.0,
+            heading_window_s: 8.0,
+            wheelbase_m: 2.7,
+            steer_ratio: 15.0,
+            min_speed_mps: 2.0,
+            k: 1,
+            max_gap_s: 3.0,
+            warmup_s: 10.0,
+            stuck_s: 10.0,
+        }
+    }
+}
+
+/// How steering and GNSS disagree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TurnMismatch {
+    /// Steering turned (left/right), GNSS went straight.
+    SteeringTurnGnssStraight,
+    /// Steering and GNSS turned opposite ways.
+    Opposite,
+    /// GNSS turned while the wheel stayed straight.
+    GnssTurnWheelStraight,
+}
+
+/// A judgement of strategy 2, made when a segment ends or a GNSS-only turn is seen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TurnOutcome {
+    /// Steering's class (None for the GNSS-only check).
+    pub steering: TurnClass,
+    pub distance: f32,
+    /// GNSS course change over the segment, degrees (+ = right).
+    pub gnss_change_deg: f32,
+    /// Course change the steering implies through the bicycle model, degrees (+ = right); NaN
+    /// when the speed was unknown.
+    pub steering_change_deg: f32,
+    pub mismatch: Option<TurnMismatch>,
+    /// Steering came from the yaw-rate proxy.
+    pub derived: bool,
+    /// The segment's 5 Hz steering, resampled (for training and tests).
+    pub query: [f32; QUERY_LEN],
+    pub start_t: f64,
+    pub end_t: f64,
+}
+
+/// What strategy 2 did at one epoch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TurnStep {
+    /// Steering (or its yaw-rate proxy), time or position missing: not run.
+    Degraded,
+    /// Ran; nothing to judge at this epoch.
+    Ran,
+    /// A steering segment ended, or GNSS turned with the wheel straight: the judgement.
+    Judged(TurnOutcome),
+}
+
+/// The streaming turn check. `templates = None` only segments (used to collect training turns).
+#[derive(Clone, Debug)]
+pub struct TurnStrategy<'a> {
+    cfg: TurnConfig,
+    templates: Option<TemplateSet<'a>>,
+    seg: Segmenter,
+    last: Option<LastSample>,
+    heading_anchor: Option<LatLon>,
+    heading: Option<f32>,
+    dist: f32,
+    next_tick: f64,
+    last_gnss_only_alarm_t: f64,
+    /// (value, since when) of the measured steering, for the stuck-sensor check.
+    same_steer: Option<(f32, f64)>,
+}
+
+impl<'a> TurnStrategy<'a> {
+    pub fn new(cfg: TurnConfig, templates: Option<TemplateSet<'a>>) -> Self {
+        Self {
+            cfg,
+            templates,
+            seg: Segmenter::default(),
+            last: None,
+            heading_anchor: None,
+            heading: None,
+            dist: 0.0,
+            next_tick: 0.0,
+            last_gnss_only_alarm_t: f64::NEG_INFINITY,
+            same_steer: None,
+        }
+    }
+
+    pub fn reset(&mut self) {
+        *self = TurnStrategy::new(self.cfg, self.templates);
+    }
+
+    /// Steering for this sample: measured, else the yaw-rate proxy, `(value, derived)`; the
+    /// value is NaN (unknown, internal only) when the proxy is undefined at low speed.
+    fn steer_of(&self, s: &Sample) -> Option<(f32, bool)> {
+        if let Some(v) = s.steering().get().filter(|v| v.is_finite()) {
+            return Some((v, false));
+        }
+        let speed = s.wheel_speed().get().or(s.gnss_speed.get())?;
+        let yaw = s.yaw_rate().get()?;
+        Some((self.cfg.bicycle().steering_deg(yaw, speed).unwrap_or(f32::NAN), true))
+    }
+
+    /// Tracks how long the measured steering has stayed bit-identical while moving.
+    fn steering_stuck(&mut self, steer: f32, s: &Sample) -> bool {
+        let moving = s.wheel_speed().get().or(s.gnss_speed.get()).is_some_and(|v| v >= self.cfg.min_speed_mps);
+        match self.same_steer {
+            Some((v, t0)) if v.to_bits() == steer.to_bits() && s.t >= t0 => moving && (s.t - t0) as f32 >= self.cfg.stuck_s,
+            _ => {
+                self.same_steer = Some((steer, s.t));
+                false
+            }
+        }
+    }
+
+    /// One epoch.
+    pub fn step(&mut self, s: &Sample) -> TurnStep {
+        let Some((steer, derived)) = self.steer_of(s) else {
+            self.reset();
+            return TurnStep::Degraded;
+        };
+        if !s.t.is_finite() || !s.pos.is_valid() {
+            self.reset();
+            return TurnStep::Degraded;
+        }
+        if !derived && self.steering_stuck(steer, s) {
+            // Degraded, not reset: no segment or straight-wheel window may span a stuck sensor.
+            self.seg.forget();
+            self.last = None;
+            return TurnStep::Degraded;
+        }
+        // Heading: reported course when moving, else the bearing over >= 3 m of track.
+        let moving = s.gnss_speed.get().is_none_or(|v| v >= self.cfg.min_speed_mps);
+        match (s.gnss_course.get(), self.heading_anchor) {
+            (Some(c), _) if moving && s.gnss_speed.is_valid() => self.heading = Some(c),
+            (_, Some(a)) => {
+                if haversine_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= 3.0 {
+                    self.heading = Some(initial_bearing_deg(a, s.pos) as f32);
+                    self.heading_anchor = Some(s.pos);
+                }
+            }
+            (_, None) => self.heading_anchor = Some(s.pos),
+        }
+        let Some(heading) = self.heading else {
+            // No heading yet: start over at the next sample.
+            self.last = None;
+            return TurnStep::Ran;
+        };
+        let shift = s.shift_m.get().filter(|d| d.is_finite() && *d < 1e4).unwrap_or(0.0);
+        let speed = s.wheel_speed().get().or(s.gnss_speed.get()).filter(|v| v.is_finite()).unwrap_or(f32::NAN);
+        let mut out = None;
+        match self.last {
+            Some(LastSample { t: t0, steer: st0, heading: h0, speed: v0 }) if s.t > t0 && s.t - t0 <= self.cfg.max_gap_s as f64 => {
+                let d0 = self.dist;
+                self.dist += shift;
+                // The tick clock lives within (t0, t]; never more than max_gap / tick ticks here.
+                if self.next_tick <= t0 || self.next_tick > s.t + TICK_S {
+                    self.next_tick = t0 + TICK_S;
+                }
+                // Bounded: at huge timestamps `t + TICK_S == t` in f64.
+                let max_ticks = (self.cfg.max_gap_s as f64 / TICK_S) as usize + 2;
+                let mut n = 0;
+                while self.next_tick <= s.t && n < max_ticks {
+                    n += 1;
+                    let w = ((self.next_tick - t0) / (s.t - t0)) as f32;
+                    let tick = Tick {
+                        t: self.next_tick,
+                        steer: st0 + (steer - st0) * w,
+                        heading: if w < 1.0 { h0 } else { heading },
+                        dist: d0 + shift * w,
+                        speed: v0 + (speed - v0) * w,
+                    };
+                    if let Some(o) = self.on_tick(tick, derived) {
+                        if out.is_none() || o.mismatch.is_some() {
+                            out = Some(o);
+                        }
+                    }
+                    self.next_tick += TICK_S;
+                }
+            }
+            _ => {
+                // Start or restart: the next tick is this sample.
+                self.seg.restart(s.t);
+                self.dist = 0.0;
+                self.next_tick = s.t;
+                let tick = Tick { t: s.t, steer, heading, dist: 0.0, speed };
+                let _ = self.on_tick(tick, derived);
+                self.next_tick = s.t + TICK_S;
+            }
+        }
+        self.last = Some(LastSample { t: s.t, steer, heading, speed });
+        out.map_or(TurnStep::Ran, TurnStep::Judged)
+    }
+
+    fn on_tick(&mut self, tick: Tick, derived: bool) -> Option<TurnOutcome> {
+        match self.seg.push(tick, &self.cfg.rule()) {
+            SegEvent::NoSegment => self.gnss_only_check(derived),
+            SegEvent::Ended { start, end } => self.judge(start, end, derived),
+            SegEvent::Nothing | SegEvent::InSegment => None,
+        }
+    }
+
+    fn judge(&mut self, st: usize, end: usize, derived: bool) -> Option<TurnOutcome> {
+        // The segment's ticks, at most MAX_SEGMENT of them: the buffer bounds the copy, never an index.
+        let mut raw = [0.0f32; MAX_SEGMENT];
+        let n = (end + 1).saturating_sub(st).min(MAX_SEGMENT);
+        let mut filled = 0;
+        for (r, t) in raw.iter_mut().zip(self.seg.ticks().skip(st).take(n)) {
+            *r = t.steer;
+            filled += 1;
+        }
+        let mut q = [0.0f32; QUERY_LEN];
+        resample(raw.get(..filled).unwrap_or(&[]), &mut q);
+        let change = self.seg.course_change(st, end);
+        let first = self.seg.tick(st)?;
+        let last = self.seg.tick(end)?;
+        let (start_t, end_t) = (first.t, last.t);
+        if last.dist - first.dist < self.cfg.min_travel_m {
+            return None; // wheel turned while (almost) standing: nothing for GNSS to show
+        }
+        // Heading change the steering implies (kinematic bicycle model, + = right like bearings).
+        let bicycle = self.cfg.bicycle();
+        let mut implied = 0.0f32;
+        for t in self.seg.ticks().skip(st).take(n) {
+            implied += bicycle.heading_change_deg(t.steer, t.speed, TICK_S as f32);
+        }
+        let (class, distance) = match self.templates.as_ref().and_then(|set| classify(set, &q, self.cfg.k)) {
+            Some(nb) => (nb.class, nb.distance),
+            None => (TurnClass::None, f32::INFINITY),
+        };
+        let c = self.cfg;
+        let gnss = if change > c.gnss_turn_deg {
+            Some(TurnClass::Right)
+        } else if change < -c.gnss_turn_deg {
+            Some(TurnClass::Left)
+        } else if libm::fabsf(change) < c.gnss_straight_deg {
+            Some(TurnClass::None)
+        } else {
+            None // in between: not judged
+        };
+        // The steering must also imply a real turn the same way as its class (a roundabout's
+        // steering can look like a turn while the net heading change is small).
+        let implied_turn = match class {
+            TurnClass::Left => implied < -c.gnss_turn_deg,
+            TurnClass::Right => implied > c.gnss_turn_deg,
+            TurnClass::None => false,
+        };
+        let mismatch = match (class, gnss) {
+            _ if !implied_turn => None,
+            (TurnClass::Left | TurnClass::Right, Some(TurnClass::None)) => Some(TurnMismatch::SteeringTurnGnssStraight),
+            (TurnClass::Left, Some(TurnClass::Right)) | (TurnClass::Right, Some(TurnClass::Left)) => Some(TurnMismatch::Opposite),
+            _ => None,
+        };
+        Some(TurnOutcome { steering: class, distance, gnss_change_deg: change, steering_change_deg: implied, mismatch, derived, query: q, start_t, end_t })
+    }
+
+    /// Over the last `heading_window_s` of driving (every tick at known steering and at least
+    /// `min_speed_mps`), GNSS turned by more than `straight_turn_deg` beyond what the steering
+    /// implies: the wheel did not do that turn.
+    fn gnss_only_check(&mut self, derived: bool) -> Option<TurnOutcome> {
+        let c = self.cfg;
+        let last = *self.seg.ticks().next_back()?;
+        let end = self.seg.len() - 1;
+        let mut from = end;
+        let bicycle = c.bicycle();
+        let mut implied = 0.0f32;
+        for (i, t) in self.seg.ticks().enumerate().rev() {
+            let age = last.t - t.t;
+            if age > (c.heading_window_s + HEADING_MARGIN_S) as f64 {
+                break;
+            }
+            // The wheel straight over the window and a margin before it (GNSS headings lag a
+            // finished turn by up to an epoch). Unknown (NaN) steering or speed fails too.
+            if !(libm::fabsf(t.steer) < c.settle_deg && t.speed >= c.min_speed_mps) {
+                return None;
+            }
+            if age > c.heading_window_s as f64 {
+                continue;
+            }
+            if i < end {
+                implied += bicycle.heading_change_deg(t.steer, t.speed, TICK_S as f32);
+            }
+            from = i;
+        }
+        let first = self.seg.tick(from)?;
+        let oldest = self.seg.ticks().next()?;
+        if ((last.t - oldest.t) as f32) < c.heading_window_s + HEADING_MARGIN_S - 0.5 {
+            return None; // not enough history yet
+        }
+        let change = self.seg.course_change(from, end);
+        // One alarm per window.
+        if libm::fabsf(change - implied) > c.straight_turn_deg && last.t - self.last_gnss_only_alarm_t > c.heading_window_s as f64 {
+            self.last_gnss_only_alarm_t = last.t;
+            return Some(TurnOutcome {
+                steering: TurnClass::None,
+                distance: 0.0,
+                gnss_change_deg: change,
+                steering_change_deg: implied,
+                mismatch: Some(TurnMismatch::GnssTurnWheelStraight),
+                derived,
+                query: [0.0; QUERY_LEN],
+                start_t: first.t,
+                end_t: last.t,
+            });
+        }
+        None
+    }
+}
