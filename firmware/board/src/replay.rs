@@ -20,6 +20,7 @@
 
 use crate::health::{decode_status, AlarmFrame, State, StatusPage, WatchdogGate, BLIND_AFTER_S, STATUS_PERIOD_S};
 use crate::pipeline::{Digest, Pipeline};
+use detector_core::wire::le::{f64 as f64_at, u16 as u16_at, u32 as u32_at};
 use detector_core::fusion::{Config, Verdict};
 use detector_core::strategy::location_shift::{Predictor, ShiftPredictor};
 use detector_core::strategy::turn::TemplateSet;
@@ -67,19 +68,6 @@ pub struct Scenario<'a> {
     pub until_s: f64,
     nmea: &'a [u8],
     nmea_count: usize,
-}
-
-fn bytes_at<const N: usize>(b: &[u8], i: usize) -> Option<[u8; N]> {
-    b.get(i..i.checked_add(N)?)?.try_into().ok()
-}
-fn u16_at(b: &[u8], i: usize) -> Option<u16> {
-    bytes_at(b, i).map(u16::from_le_bytes)
-}
-fn u32_at(b: &[u8], i: usize) -> Option<u32> {
-    bytes_at(b, i).map(u32::from_le_bytes)
-}
-fn f64_at(b: &[u8], i: usize) -> Option<f64> {
-    bytes_at(b, i).map(f64::from_le_bytes)
 }
 
 impl<'a> Input<'a> {
