@@ -1,8 +1,8 @@
 //! Builds the replay input from `../shared/data` (or `GNSS_DATA_DIR`; without it, the simulated
-//! drive) with host-sim's generator, and puts the top-level `memory.x` on the link path.
+//! drive) with gnss-data's generator, and puts the top-level `memory.x` on the link path.
 fn main() {
     let out = std::path::PathBuf::from(std::env::var("OUT_DIR").unwrap());
-    let data = host_sim::input::data_dir();
+    let data = gnss_data::input::data_dir();
     println!("cargo:rerun-if-env-changed=GNSS_DATA_DIR");
     println!("cargo:rerun-if-env-changed=CI");
     let seg = data.join("raw/comma2k19_rav4_seg40/processed_log");
@@ -10,7 +10,7 @@ fn main() {
         panic!("CI=true: the QEMU run must replay the real comma2k19 segment, but {} is missing", seg.display());
     }
     println!("cargo:rerun-if-changed={}", data.display());
-    let (bytes, desc) = host_sim::qemu_input::generate(&data).unwrap_or_else(|e| panic!("generating the QEMU input: {e}"));
+    let (bytes, desc) = gnss_data::qemu_input::generate(&data).unwrap_or_else(|e| panic!("generating the QEMU input: {e}"));
     std::fs::write(out.join("input.bin"), &bytes).unwrap();
     std::fs::write(out.join("input.txt"), desc).unwrap();
     std::fs::copy("../../memory.x", out.join("memory.x")).unwrap();

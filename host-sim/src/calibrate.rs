@@ -3,8 +3,8 @@
 //! speeds seen while the wheels stand / turn.
 
 use crate::detect::{self, PredictorKind};
-use crate::input::{self, LoadOptions};
-use crate::replay;
+use gnss_data::input::{self, LoadOptions};
+use gnss_data::replay;
 use detector_core::fusion::Config;
 use detector_core::sync::SyncConfig;
 use serde::Serialize;

@@ -4,7 +4,7 @@ use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::profile::{self, ReceiverProfile};
 use detector_core::sample::Sample;
 use detector_core::strategy::location_shift::{KinematicPredictor, Predictor, ShiftPredictor, WithFallback};
-use detector_core::strategy::lstm::{LstmModel, LstmPredictor, DEFAULT_MODEL};
+use detector_core::strategy::location_shift::lstm::{LstmModel, LstmPredictor, DEFAULT_MODEL};
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
 use detector_core::strategy::StrategyId;
 use serde::Serialize;

@@ -1,22 +1,29 @@
-//! host-sim: the host side of the GNSS spoofing detector.
+//! host-sim: the host side of the GNSS spoofing detector: real drives through the same core
+//! the firmware runs, attacks, evaluation, training, reports.
 //!
-//! Data path: [`input`] decodes real drives into a time-ordered event stream, [`replay`] runs it
-//! through the core's synchroniser (the same code the firmware runs) into per-epoch samples,
-//! and [`inspect`] summarises a drive.
+//! The data path, layer by layer (each module uses only those before it):
+//! - from `gnss-data` (light, shared with the QEMU image's build): [`input`] decodes drives,
+//!   [`replay`] synchronises them, [`tracks`], [`attack`], [`sim`], [`qemu_input`];
+//! - [`output`]: files written whole or not at all;
+//! - [`detect`]: the core's detector over a drive, verdicts as JSON, the device's status;
+//! - [`dataset`]: drives prepared for evaluation and training;
+//! - [`inspect`], [`calibrate`]: what a drive holds, what the thresholds are made of;
+//! - [`turns`], [`lstm`]: strategy 2's templates and strategy 1's LSTM (data; training with
+//!   the `train` feature);
+//! - [`eval`]: the evaluation (plan, run, results, statistics, report);
+//! - [`bench`]: the benchmarks the command line prints.
 
-pub mod attack;
-pub mod calibrate;
-pub mod detect;
-pub mod eval;
-pub mod input;
-pub mod inspect;
-pub mod lstm;
+pub use gnss_data::{attack, input, qemu_input, replay, sim, tracks};
+
 pub mod output;
-pub mod qemu_input;
-pub mod replay;
-pub mod report;
-pub mod sim;
+pub mod detect;
+pub mod dataset;
+pub mod inspect;
+pub mod calibrate;
 pub mod turns;
+pub mod lstm;
+pub mod eval;
+pub mod bench;
 
 /// The real-data folder for a test, or `None` (with the reason printed) when it is absent.
 /// In CI (`CI=true`) an absent folder is a failure, not a skip.

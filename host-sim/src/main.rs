@@ -1,8 +1,14 @@
+//! The `host-sim` command line: parses arguments and calls the library (`host_sim`); what each
+//! command does lives in the modules it calls (`detect`, `eval`, `inspect`, `calibrate`, `bench`,
+//! training). Exit codes: 0 success, 2 bad input (the file, line and what was expected are
+//! printed), 1 anything else.
+
 use clap::{Parser, Subcommand, ValueEnum};
 use detector_core::sync::SyncConfig;
-use host_sim::input::{self, hdd::HddUnits, InputError, LoadOptions};
-use host_sim::attack::AttackKind;
-use host_sim::{attack, detect, eval, inspect, replay, report, sim};
+use host_sim::attack::{self, AttackKind};
+use host_sim::dataset::Drive;
+use host_sim::input::{self, HddUnits, InputError, LoadOptions};
+use host_sim::{bench, detect, eval, inspect, replay, sim};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -88,7 +94,8 @@ enum Cmd {
     },
     /// Write an attacked copy of a drive in the common CSV layout, plus an `attack_active` column.
     Attack {
-        #[arg(long, value_enum)]
+        /// turn-by-turn, overshoot, stop, wrong-turn, slow-drift, small-biased, direction, replay, jump
+        #[arg(long, value_parser = parse_attack_kind)]
         kind: AttackKind,
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -182,6 +189,10 @@ enum Cmd {
         #[command(flatten)]
         load: LoadArgs,
     },
+}
+
+fn parse_attack_kind(s: &str) -> Result<AttackKind, String> {
+    AttackKind::from_name(s).ok_or_else(|| format!("expected one of {:?}", AttackKind::ALL.map(AttackKind::name)))
 }
 
 fn expand(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
@@ -316,25 +327,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 run_eval(drives, "real", scenarios, seed, detect::PredictorKind::Lstm, &out)
             } else {
                 outln!("demo: {} not found: using two SIMULATED drives (10 Hz and 1 Hz receivers; seed {seed})", dir.display());
-                let drives = sim::demo_drives(seed).into_iter().map(|r| eval::Drive::new(r, SyncConfig::default())).collect();
+                let drives = sim::demo_drives(seed).into_iter().map(|r| Drive::new(r, SyncConfig::default())).collect();
                 run_eval(drives, "simulated", scenarios, seed, detect::PredictorKind::Lstm, &out)
             }
         }
         Cmd::Train { what, data, out, seed, hidden, epochs, patience, window } if what == "lstm" => {
-            let dir = data.unwrap_or_else(input::data_dir);
-            let drives = load_drives(&dir.join("drives"))?;
-            anyhow::ensure!(hidden.len() == 2, "--hidden takes two sizes, e.g. 128,64");
-            let d = host_sim::lstm::TrainOptions::default();
-            let o = host_sim::lstm::TrainOptions { h1: hidden[0], h2: hidden[1], max_epochs: epochs, patience, window, seed: seed.unwrap_or(d.seed), ..d };
-            let (int_blob, f32_blob, rep) = host_sim::lstm::train(&drives, &o, &|e, t, v| eprintln!("epoch {e:4}  train MAE {t:.5}  validation MAE {v:.5}"))?;
-            let f32_path = out.with_extension("f32.bin");
-            host_sim::output::write_atomic(&out, |w| w.write_all(&int_blob))?;
-            host_sim::output::write_atomic(&f32_path, |w| w.write_all(&f32_blob))?;
-            let json = serde_json::to_string_pretty(&rep)?;
-            host_sim::output::write_atomic(&out.with_extension("train.json"), |w| w.write_all(json.as_bytes()))?;
-            outln!("{json}");
-            eprintln!("wrote {} ({} bytes, int8) and {} ({} bytes, f32)", out.display(), int_blob.len(), f32_path.display(), f32_blob.len());
-            Ok(())
+            train_lstm(data, out, seed, hidden, epochs, patience, window)
         }
         Cmd::Train { what: _, data, out, seed, .. } => {
             let seed = seed.unwrap_or(1);
@@ -351,66 +349,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let dir = data.unwrap_or_else(input::data_dir);
             let mut drives = load_drives(&dir.join("drives"))?;
             drives.extend(host_sim::turns::sim_drives());
-            let queries: Vec<Vec<f32>> = drives.iter().enumerate()
-                .filter(|(i, _)| host_sim::turns::held_out(&drives, *i))
-                .flat_map(|(_, d)| host_sim::turns::collect(d)).map(|t| t.query.to_vec()).collect();
-            let set = detect::default_templates();
-            let templates: Vec<Vec<f32>> = (0..set.len()).map(|i| set.get(i).2.to_vec()).collect();
-            let q: Vec<[f32; 32]> = queries.iter().map(|v| v.as_slice().try_into().expect("32 points")).collect();
-            // Repeat to get a stable timing.
-            let reps = 200;
-            let t0 = std::time::Instant::now();
-            let mut sink = 0.0f32;
-            for _ in 0..reps {
-                for x in &q {
-                    sink += detector_core::strategy::turn::classify(&set, x, 1).map_or(0.0, |n| n.distance);
-                }
-            }
-            let us = t0.elapsed().as_secs_f64() * 1e6 / (reps * q.len().max(1)) as f64;
+            let b = bench::dtw(&drives);
             host_sim::output::write_atomic(&export, |w| serde_json::to_writer(w, &serde_json::json!({
-                "band": set.band(), "templates": templates, "queries": queries, "rust_us_per_query": us,
+                "band": b.band, "templates": b.templates, "queries": b.queries.iter().map(|q| q.to_vec()).collect::<Vec<_>>(), "rust_us_per_query": b.us_per_query,
             })).map_err(std::io::Error::other))?;
-            outln!("queries {} templates {} (checksum {sink:.1})", q.len(), set.len());
-            outln!("rust_us_per_query: {us:.2}");
+            outln!("queries {} templates {} (checksum {:.1})", b.queries.len(), b.templates.len(), b.checksum);
+            outln!("rust_us_per_query: {:.2}", b.us_per_query);
             Ok(())
         }
         Cmd::LstmBench { data } => {
-            use detector_core::strategy::lstm::LstmPredictor;
             let dir = data.unwrap_or_else(input::data_dir);
             let drives = load_drives(&dir.join("drives"))?;
             let runs = eval::validation_runs(&drives);
             anyhow::ensure!(!runs.is_empty(), "no validation drives in {}", dir.display());
-            let xs: Vec<[f32; 4]> = runs.iter().flat_map(|r| r.x.iter().copied()).collect();
-            let time_stream = |step: &mut dyn FnMut([f32; 4]) -> f32| {
-                let t0 = std::time::Instant::now();
-                let mut sink = 0.0;
-                for x in &xs {
-                    sink += step(*x);
-                }
-                (t0.elapsed().as_secs_f64() * 1e6 / xs.len() as f64, sink)
-            };
-            let mut q = LstmPredictor::int(detect::default_lstm()).expect("int8");
-            let (us_int, _) = time_stream(&mut |x| q.step_raw(x));
-            let mut f = LstmPredictor::reference(detect::default_lstm_f32());
-            let (us_ref, _) = time_stream(&mut |x| f.step_raw(x));
-            // burn batch forward, same shapes (timing does not depend on the weights).
-            let device = burn::tensor::Device::default();
-            let net = host_sim::lstm::Net::new(128, 64, &device);
-            let (b, t) = (50usize, 32usize);
-            let data: Vec<f32> = xs.iter().cycle().take(b * t).flat_map(|x| x.map(|v| v / 30.0)).collect();
-            let input: burn::tensor::Tensor<3> = burn::tensor::Tensor::from_data(burn::tensor::TensorData::new(data, [b, t, 4]), &device);
-            let reps = 20;
-            let _ = net.forward(input.clone()).into_data();
-            let t0 = std::time::Instant::now();
-            for _ in 0..reps {
-                let _ = net.forward(input.clone()).into_data();
-            }
-            let us_batch = t0.elapsed().as_secs_f64() * 1e6 / (reps * b * t) as f64;
-            outln!("validation steps timed: {}", xs.len());
+            let (steps, us_int, us_ref) = bench::lstm_kernels(&runs);
+            outln!("validation steps timed: {steps}");
             outln!("streaming step, integer kernel (int8):  {us_int:.1} us");
             outln!("streaming step, f32 reference kernel:   {us_ref:.1} us");
-            outln!("burn batch forward [{b} x {t}] per observation: {us_batch:.2} us (paper: 0.691 us on a dual Xeon)");
-            outln!("model blob: {} bytes int8, {} bytes f32", detector_core::strategy::lstm::DEFAULT_MODEL.len(), detect::DEFAULT_MODEL_F32.len());
+            #[cfg(feature = "train")]
+            outln!("burn batch forward [50 x 32] per observation: {:.2} us (paper: 0.691 us on a dual Xeon)", bench::burn_batch_us(&runs));
+            #[cfg(not(feature = "train"))]
+            outln!("burn batch forward: not in this build (cargo build -p host-sim --features train)");
+            let (int8, f32b) = bench::model_bytes();
+            outln!("model blob: {int8} bytes int8, {f32b} bytes f32");
             Ok(())
         }
         Cmd::Digest { data, export } => {
@@ -452,47 +413,53 @@ fn print_stats(s: &inspect::DriveStats) {
     }
 }
 
-fn load_drives(dir: &std::path::Path) -> anyhow::Result<Vec<eval::Drive>> {
+fn load_drives(dir: &std::path::Path) -> anyhow::Result<Vec<Drive>> {
     use rayon::prelude::*;
     let files = expand(&[dir.to_path_buf()])?;
     let opts = LoadOptions::default();
     files.par_iter()
-        .map(|f| Ok(eval::Drive::new(input::load(f, &opts)?, SyncConfig::default())))
+        .map(|f| Ok(Drive::new(input::load(f, &opts)?, SyncConfig::default())))
         .collect()
 }
 
-fn run_eval(drives: Vec<eval::Drive>, data: &str, scenarios: usize, seed: u64, predictor: detect::PredictorKind, out: &std::path::Path) -> anyhow::Result<()> {
-    use detect::PredictorKind;
+fn run_eval(drives: Vec<Drive>, data: &str, scenarios: usize, seed: u64, predictor: detect::PredictorKind, out: &std::path::Path) -> anyhow::Result<()> {
     let o = eval::EvalOptions { scenarios, seed, predictor, ..Default::default() };
     let total = drives.len() + eval::plan(&drives, &o).len();
     let bar = indicatif::ProgressBar::new(total as u64);
     bar.set_style(indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}").unwrap().progress_chars("=> "));
     bar.set_message("evaluating");
-    let mut r = eval::evaluate(&drives, &o, data, &|| bar.inc(1));
+    let r = eval::full(drives, &o, data, &|| bar.inc(1));
     bar.finish_and_clear();
-    // The same scenarios judged by the paper's strategies alone, for the comparison table.
-    let paper = eval::EvalOptions { tweak: Some(|c| c.consistency.enabled = false), ..o };
-    r.paper_strategies_only = Some(eval::evaluate(&drives, &paper, data, &|| {}).attacks);
-    // Strategy 1's predictors side by side, and the int8 LSTM against its f32 original, on the
-    // same drives and scenarios.
-    let runs: std::collections::BTreeMap<PredictorKind, eval::Report> = [PredictorKind::Kinematic, PredictorKind::Lstm, PredictorKind::LstmF32]
-        .into_iter()
-        .map(|k| (k, if k == predictor { r.clone() } else { eval::evaluate(&drives, &eval::EvalOptions { predictor: k, ..o }, data, &|| {}) }))
-        .collect();
-    r.predictors = Some([PredictorKind::Kinematic, PredictorKind::Lstm].into_iter().map(|k| (k.name(), eval::predictor_stats(k, &drives, &runs[&k]))).collect());
-    r.quantization = Some(eval::quantization(&drives, &runs[&PredictorKind::Lstm], &runs[&PredictorKind::LstmF32]));
-    // The slow drifts again at fixed rates: what is detected within 10 s.
-    r.drift_sweep = Some(eval::drift_sweep(&drives, &o));
-    // Strategy 2's classifier on the held-out turns (real drives of this run + held-out simulated).
-    let mut turn_drives = drives;
-    turn_drives.extend(host_sim::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));
-    r.turns = Some(host_sim::turns::evaluate_default(&turn_drives));
-    let files = report::write_all(&r, out)?;
-    outln!("{}", report::headline(&r));
-    outln!("Table 3 (scenarios in which each strategy fired):\n{}", report::table3(&r));
+    let files = eval::report::write_all(&r, out)?;
+    outln!("{}", eval::report::headline(&r));
+    outln!("Table 3 (scenarios in which each strategy fired):\n{}", eval::report::table3(&r));
     if let Some(p) = &r.predictors {
-        outln!("Strategy 1 predictors:\n{}", report::predictors(p, r.quantization.as_ref()));
+        outln!("Strategy 1 predictors:\n{}", eval::report::predictors(p, r.quantization.as_ref()));
     }
     outln!("wrote {} files under {} (report.json, report.md, figures/)", files.len(), out.display());
     Ok(())
+}
+
+/// `train lstm`: burn, only with the `train` feature.
+#[cfg(feature = "train")]
+fn train_lstm(data: Option<PathBuf>, out: PathBuf, seed: Option<u64>, hidden: Vec<usize>, epochs: usize, patience: usize, window: usize) -> anyhow::Result<()> {
+    let dir = data.unwrap_or_else(input::data_dir);
+    let drives = load_drives(&dir.join("drives"))?;
+    anyhow::ensure!(hidden.len() == 2, "--hidden takes two sizes, e.g. 128,64");
+    let d = host_sim::lstm::TrainOptions::default();
+    let o = host_sim::lstm::TrainOptions { h1: hidden[0], h2: hidden[1], max_epochs: epochs, patience, window, seed: seed.unwrap_or(d.seed), ..d };
+    let (int_blob, f32_blob, rep) = host_sim::lstm::train(&drives, &o, &|e, t, v| eprintln!("epoch {e:4}  train MAE {t:.5}  validation MAE {v:.5}"))?;
+    let f32_path = out.with_extension("f32.bin");
+    host_sim::output::write_atomic(&out, |w| w.write_all(&int_blob))?;
+    host_sim::output::write_atomic(&f32_path, |w| w.write_all(&f32_blob))?;
+    let json = serde_json::to_string_pretty(&rep)?;
+    host_sim::output::write_atomic(&out.with_extension("train.json"), |w| w.write_all(json.as_bytes()))?;
+    outln!("{json}");
+    eprintln!("wrote {} ({} bytes, int8) and {} ({} bytes, f32)", out.display(), int_blob.len(), f32_path.display(), f32_blob.len());
+    Ok(())
+}
+
+#[cfg(not(feature = "train"))]
+fn train_lstm(_: Option<PathBuf>, _: PathBuf, _: Option<u64>, _: Vec<usize>, _: usize, _: usize, _: usize) -> anyhow::Result<()> {
+    anyhow::bail!("this build has no LSTM training: build host-sim with `--features train` (burn), e.g. `cargo run --release -p host-sim --features train -- train lstm ...`")
 }

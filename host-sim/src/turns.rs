@@ -9,7 +9,7 @@
 //! so its accuracy is a transfer result; of the other drives, every second one in sorted order
 //! per source is held out; simulated drives with seeds 100..103 train, 200..203 are held out.
 
-use crate::eval::Drive;
+use crate::dataset::Drive;
 use detector_core::sample::Signal;
 use detector_core::strategy::turn::{self, Provenance, TemplateSet, TurnClass, TurnConfig, TurnStrategy, QUERY_LEN};
 use rand::seq::SliceRandom;
@@ -238,6 +238,6 @@ pub fn sim_drives() -> Vec<Drive> {
     use detector_core::sync::SyncConfig;
     [100, 101, 102, 103, 200, 201, 202, 203]
         .iter()
-        .map(|&s| Drive::new(crate::sim::drive(s, 15.0, if s % 2 == 0 { 10.0 } else { 1.0 }), SyncConfig::default()))
+        .map(|&s| Drive::new(gnss_data::sim::drive(s, 15.0, if s % 2 == 0 { 10.0 } else { 1.0 }), SyncConfig::default()))
         .collect()
 }

@@ -2,7 +2,8 @@
 
 use detector_core::sync::SyncConfig;
 use host_sim::attack::{self, AttackKind};
-use host_sim::eval::{self, Drive, EvalOptions};
+use host_sim::dataset::Drive;
+use host_sim::eval::{self, EvalOptions};
 use host_sim::input::{self, LoadOptions};
 use host_sim::require_data;
 

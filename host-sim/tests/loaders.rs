@@ -86,7 +86,7 @@ fn hdd_fixture_swapped_latlon_and_units() {
     assert!(s.iter().all(|x| x.gnss_course.is_valid()));
     assert!(valid(&s, Signal::Pedal).len() + 1 >= s.len());
     // m/s if told so: 3.6 times larger.
-    let opts = LoadOptions { hdd: input::hdd::HddUnits { speed_scale: 1.0, steer_sign: 1.0 }, ..Default::default() };
+    let opts = LoadOptions { hdd: input::HddUnits { speed_scale: 1.0, steer_sign: 1.0 }, ..Default::default() };
     let s2 = replay::synchronize(&input::load(&p, &opts).unwrap(), SyncConfig::default()).0;
     let ws2 = mean(valid(&s2, Signal::WheelSpeed).into_iter());
     assert!((ws2 / ws - 3.6).abs() < 1e-3);

@@ -1,9 +1,11 @@
 //! Strategy 1's LSTM on the real drives: the trainer's split, streaming == batch, the committed
-//! model's threshold terms and its int8 fidelity.
+//! model's threshold terms and its int8 fidelity. Needs the `train` feature (burn).
+
+#![cfg(feature = "train")]
 
 use burn::tensor::Device;
-use detector_core::strategy::lstm::{LstmModel, LstmPredictor, WeightKind};
-use host_sim::eval::Drive;
+use detector_core::strategy::location_shift::lstm::{LstmModel, LstmPredictor, WeightKind};
+use host_sim::dataset::Drive;
 use host_sim::input::{self, LoadOptions};
 use host_sim::lstm::{self, Net, TrainOptions};
 use detector_core::sync::SyncConfig;

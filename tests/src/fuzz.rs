@@ -140,7 +140,7 @@ pub fn template_blob(data: &[u8]) {
     if data.len() >= 18 {
         let mut v = data.to_vec();
         let n = v.len() - 4;
-        let crc = detector_core::crc32::crc32(&v[..n]);
+        let crc = detector_core::wire::crc32::crc32(&v[..n]);
         v[n..].copy_from_slice(&crc.to_le_bytes());
         let _ = TemplateSet::parse(&v);
     }
@@ -148,7 +148,7 @@ pub fn template_blob(data: &[u8]) {
 
 /// The LSTM model blob parser, and both kernels on whatever it accepts.
 pub fn lstm_blob(data: &[u8]) {
-    use detector_core::strategy::lstm::{LstmModel, LstmPredictor};
+    use detector_core::strategy::location_shift::lstm::{LstmModel, LstmPredictor};
     let run = |bytes: &[u8]| {
         if let Ok(m) = LstmModel::parse(bytes) {
             let x = [f32::NAN, 1e30, -3.0, 20.0];
@@ -166,7 +166,7 @@ pub fn lstm_blob(data: &[u8]) {
     if data.len() >= 84 {
         let mut v = data.to_vec();
         let n = v.len() - 4;
-        let crc = detector_core::crc32::crc32(&v[..n]);
+        let crc = detector_core::wire::crc32::crc32(&v[..n]);
         v[n..].copy_from_slice(&crc.to_le_bytes());
         run(&v);
     }

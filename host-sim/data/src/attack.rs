@@ -18,7 +18,7 @@
 //! | `jump` | a single offset of 300 to 1000 m in a random direction | onset while moving |
 
 use crate::input::{Event, Replay};
-use crate::inspect;
+use crate::tracks;
 use detector_core::geo::{
     angle_diff_deg, destination, from_local, haversine_m, initial_bearing_deg, to_local, wrap_360, LatLon,
     EARTH_RADIUS_PAPER_M,
@@ -30,7 +30,7 @@ use serde::Serialize;
 
 const R: f64 = EARTH_RADIUS_PAPER_M;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum AttackKind {
     TurnByTurn,
@@ -58,6 +58,10 @@ impl AttackKind {
     ];
     /// The stealthy kinds (beyond the paper).
     pub const STEALTHY: [AttackKind; 4] = [AttackKind::SlowDrift, AttackKind::SmallBiased, AttackKind::Direction, AttackKind::Replay];
+    /// The kind of a command-line name.
+    pub fn from_name(name: &str) -> Option<AttackKind> {
+        AttackKind::ALL.into_iter().find(|k| k.name() == name)
+    }
     pub fn name(self) -> &'static str {
         match self {
             AttackKind::TurnByTurn => "turn-by-turn",
@@ -165,7 +169,7 @@ pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
 
 /// Start times of real turns (> 60 deg within 60 m of track, as `inspect` counts them).
 pub fn turn_starts(samples: &[Sample]) -> Vec<f64> {
-    inspect::turn_events(samples, R).into_iter().map(|e| e.0).collect()
+    tracks::turn_events(samples, R).into_iter().map(|e| e.0).collect()
 }
 
 /// Applies `kind` at `onset_t` with parameters drawn from `seed`.

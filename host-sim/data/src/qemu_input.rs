@@ -157,7 +157,7 @@ pub fn run_all(bytes: &[u8]) -> (Vec<String>, bool) {
     let input = fmt::Input::parse(bytes).expect("our own input");
     let predictor = detector_core::strategy::location_shift::Predictor::default_lstm();
     let cfg = detector_core::fusion::Config::for_predictor(&detector_core::profile::UBLOX_10HZ, &predictor);
-    let set = crate::detect::default_templates();
+    let set = detector_core::strategy::turn::TemplateSet::parse(detector_core::strategy::turn::DEFAULT_TEMPLATES).expect("the committed template blob is valid");
     let mut lines = Vec::new();
     let mut all = true;
     let mut digests = Vec::new();

@@ -1,7 +1,7 @@
 //! The evaluation report: `report.json`, `report.md` and the figures (SVG and PNG).
 
-use crate::attack::AttackKind;
-use crate::eval::{Report, Scenario};
+use gnss_data::attack::AttackKind;
+use super::results::{PredictorStats, Quantization, Report, Scenario};
 use crate::output::write_atomic;
 use detector_core::geo::{to_local, EARTH_RADIUS_PAPER_M};
 use detector_core::strategy::StrategyId;
@@ -113,7 +113,7 @@ pub fn stealthy_breakdown(r: &Report) -> String {
 }
 
 /// The predictors side by side, and the int8 model's fidelity.
-pub fn predictors(p: &std::collections::BTreeMap<&'static str, crate::eval::PredictorStats>, q: Option<&crate::eval::Quantization>) -> String {
+pub fn predictors(p: &std::collections::BTreeMap<&'static str, PredictorStats>, q: Option<&Quantization>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "Errors on the validation drives (the LSTM never trained on them), metres; threshold = error term + GNSS error at the nominal epoch. Paper (HDD, 120 Hz): RMSE 0.0278 m, max 0.0446 m.\n");
     let _ = writeln!(s, "| predictor | profile | validation epochs | RMSE | max abs | threshold |\n|---|---|---|---|---|---|");

@@ -2,12 +2,12 @@
 //!
 //! GNSS fixes come from `GNSS/live_gnss_ublox` (columns: lat, lon, speed m/s, UTC ms, altitude,
 //! bearing deg). Vehicle signals are decoded from the real CAN frames in `CAN/raw_can` with the
-//! segment's DBC (`*.dbc` in the segment folder) and the [`can::RAV4`](super::can::RAV4) profile;
+//! segment's DBC (`*.dbc` in the segment folder) and the RAV4 map ([`super::can::RAV4_MAP`]);
 //! frames from bus 0 only (comma logs the forwarded copies on other buses). All times are the
 //! log's monotonic clock, seconds.
 
-use super::can::{Decoder, RAV4};
-use super::{Event, Format, InputError, Replay};
+use super::can::{Decoder, RAV4_MAP};
+use super::drive::{Event, Format, InputError, Replay};
 use detector_core::geo::LatLon;
 use detector_core::sample::Fix;
 use std::path::{Path, PathBuf};
@@ -59,7 +59,7 @@ pub fn load(root: &Path) -> Result<Replay, InputError> {
     // CAN
     let dbc_path = find_dbc(root)?;
     let text = std::fs::read_to_string(&dbc_path).map_err(|e| InputError::file(&dbc_path, format!("cannot read: {e}")))?;
-    let dec = Decoder::new(&text, RAV4).map_err(|e| InputError::file(&dbc_path, e))?;
+    let dec = Decoder::new(&text, RAV4_MAP).map_err(|e| InputError::file(&dbc_path, e.to_string()))?;
     let (_, ct) = read_npy::<f64>(root, "CAN/raw_can/t")?;
     let (_, addr) = read_npy::<i64>(root, "CAN/raw_can/address")?;
     let (_, src) = read_npy::<i64>(root, "CAN/raw_can/src")?;
@@ -73,7 +73,7 @@ pub fn load(root: &Path) -> Result<Replay, InputError> {
             continue;
         }
         for (sig, v) in dec.decode(addr[i] as u32, &data[i]) {
-            events.push(Event::Obs { sig, t: ct[i], v: v as f32 });
+            events.push(Event::Obs { sig, t: ct[i], v });
         }
     }
     Ok(Replay::new(root, Format::Comma2k19, events, 0))

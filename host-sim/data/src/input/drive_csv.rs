@@ -6,7 +6,7 @@
 //!
 //! The writer (`write`) emits the same layout, optionally with an `attack_active` column.
 
-use super::{parse_opt_f64, Event, Format, InputError, LoadOptions, Replay};
+use super::drive::{parse_opt_f64, Event, Format, InputError, LoadOptions, Replay};
 use detector_core::geo::LatLon;
 use detector_core::sample::{Fix, Signal};
 use std::path::Path;

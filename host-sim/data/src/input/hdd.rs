@@ -18,25 +18,10 @@
 //! value lies inside, the columns are swapped back and the replay notes it (from ranges alone a
 //! swap cannot be seen where |longitude| <= 90).
 
-use super::{parse_opt_f64, Event, Format, InputError, LoadOptions, Replay};
+use super::drive::{parse_opt_f64, Event, Format, InputError, LoadOptions, Replay};
 use detector_core::geo::LatLon;
 use detector_core::sample::{Fix, Signal};
 use std::path::Path;
-
-/// Units of the HDD files.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HddUnits {
-    /// m/s per unit of `vel.csv`'s `speed`. Default 1/3.6 (km/h).
-    pub speed_scale: f64,
-    /// +1 when `steer_angle` is + = left (default), -1 when + = right.
-    pub steer_sign: f64,
-}
-
-impl Default for HddUnits {
-    fn default() -> Self {
-        Self { speed_scale: 1.0 / 3.6, steer_sign: 1.0 }
-    }
-}
 
 type Row = (f64, Vec<Option<f64>>);
 

@@ -6,7 +6,7 @@
 //! arrived within [`PAIR_WINDOW_S`] of each other, at the later one's time. OpenXC reports no GNSS
 //! speed or course. Other names (engine speed, odometer, door status, ...) are ignored.
 
-use super::{Event, Format, InputError, LoadOptions, Replay};
+use super::drive::{Event, Format, InputError, LoadOptions, Replay};
 use detector_core::geo::LatLon;
 use detector_core::sample::{Fix, Signal};
 use std::io::BufRead;

@@ -1,0 +1,185 @@
+//! What an evaluation reports (report.json's structure).
+
+use gnss_data::attack::AttackKind;
+use detector_core::geo::LatLon;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct CleanDrive {
+    pub drive: String,
+    pub source: String,
+    pub hours: f64,
+    pub profile: &'static str,
+    pub judged: bool,
+    pub false_alarms: usize,
+    /// Epochs where strategy 1 ran, and where it ran on the LSTM itself (not its fallback).
+    pub s1_epochs: usize,
+    pub s1_lstm_epochs: usize,
+    /// FNV-1a of every verdict (as the firmware's digest).
+    pub digest: String,
+    /// FNV-1a of the decisions only (ran, fired, degraded, reasons, alarm per epoch).
+    pub decisions: String,
+    /// The same up to the first alarm.
+    pub decisions_to_alarm: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct CleanStats {
+    pub drives: usize,
+    pub hours: f64,
+    /// Drives with wheel speed, where the strategies run, and their hours.
+    pub drives_judged: usize,
+    pub hours_judged: f64,
+    pub false_alarms: usize,
+    pub false_alarms_per_hour: f64,
+    pub per_drive: Vec<CleanDrive>,
+}
+
+/// One point of a scenario's trace (for the figures).
+#[derive(Clone, Debug, Serialize)]
+pub struct TracePoint {
+    pub t: f64,
+    pub residual_m: Option<f32>,
+    pub threshold_m: Option<f32>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Scenario {
+    pub id: String,
+    pub kind: AttackKind,
+    pub drive: String,
+    pub source: String,
+    pub seed: u64,
+    pub onset_t: f64,
+    pub params: String,
+    /// The attack's main parameter (offset m, drift m/s, rotation deg/s, delay s, step m).
+    pub value: f64,
+    pub detected: bool,
+    pub ttd_s: Option<f64>,
+    pub ttd_epochs: Option<usize>,
+    /// Strategies that fired at any epoch from the onset to the end of the window.
+    pub strategies: Vec<&'static str>,
+    /// Alarm episodes before the onset (on clean data: false alarms).
+    pub pre_onset_alarms: usize,
+    /// FNV-1a of every verdict (as the firmware's digest).
+    pub digest: String,
+    /// FNV-1a of the decisions only (ran, fired, degraded, reasons, alarm per epoch).
+    pub decisions: String,
+    /// The same up to the first alarm.
+    pub decisions_to_alarm: String,
+    #[serde(skip)]
+    pub trace: Vec<TracePoint>,
+    #[serde(skip)]
+    pub true_track: Vec<(f64, LatLon)>,
+    #[serde(skip)]
+    pub perceived: Vec<(f64, LatLon)>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct KindStats {
+    pub scenarios: usize,
+    pub detected: usize,
+    pub detection_rate: f64,
+    /// Detected within 10 s of the onset.
+    pub detected_within_10s: usize,
+    pub rate_within_10s: f64,
+    pub ttd_median_s: Option<f64>,
+    pub ttd_p95_s: Option<f64>,
+    pub ttd_max_s: Option<f64>,
+    pub ttd_median_epochs: Option<f64>,
+    pub ttd_p95_epochs: Option<f64>,
+    pub ttd_max_epochs: Option<f64>,
+    /// Scenarios in which each strategy fired (a row of the paper's Table 3).
+    pub strategies: BTreeMap<&'static str, usize>,
+    pub sources: Vec<String>,
+    pub missed: Vec<String>,
+    pub hosting_drives: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    /// "real" or "simulated".
+    pub data: String,
+    pub clean: CleanStats,
+    pub attacks: BTreeMap<&'static str, KindStats>,
+    pub scenarios: Vec<Scenario>,
+    pub config: serde_json::Value,
+    /// Strategy 2's classifier on held-out turns (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub turns: Option<crate::turns::TurnReport>,
+    /// The same scenarios judged by the paper's three strategies alone (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_strategies_only: Option<BTreeMap<&'static str, KindStats>>,
+    /// The smallest slow-drift rate detected within 10 s, m/s.
+    pub smallest_drift_detected_10s_mps: Option<f64>,
+    /// The slow-drift scenarios replayed at fixed rates (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_sweep: Option<Vec<DriftSweepPoint>>,
+    /// Strategy 1's predictors side by side (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predictors: Option<BTreeMap<&'static str, PredictorStats>>,
+    /// The int8 LSTM against its f32 original (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quantization: Option<Quantization>,
+}
+
+/// One predictor on the validation epochs of one receiver profile.
+#[derive(Clone, Debug, Serialize)]
+pub struct ProfileErr {
+    pub validation_epochs: usize,
+    /// Absent without validation epochs (simulated data).
+    pub rmse_m: Option<f64>,
+    pub max_abs_m: Option<f64>,
+    /// Strategy 1's threshold at the nominal epoch: error term + GNSS error term.
+    pub threshold_m: f64,
+}
+
+/// One predictor: accuracy on the validation drives (the LSTM never saw them) and what the
+/// whole detector achieved with it.
+#[derive(Clone, Debug, Serialize)]
+pub struct PredictorStats {
+    /// Pooled over the validation epochs of both profiles (absent without real data).
+    pub rmse_m: Option<f64>,
+    pub max_abs_m: Option<f64>,
+    /// The largest nominal threshold of the profiles.
+    pub threshold_m: f64,
+    pub profiles: BTreeMap<&'static str, ProfileErr>,
+    pub detection_rate: BTreeMap<&'static str, f64>,
+    pub rate_within_10s: BTreeMap<&'static str, f64>,
+    pub false_alarms: usize,
+    /// Epochs of the clean drives where strategy 1 ran, and where the LSTM itself made the
+    /// prediction (elsewhere it lacked an input and the kinematic fallback did).
+    pub s1_epochs_clean: usize,
+    pub s1_lstm_epochs_clean: usize,
+}
+
+/// The deployed int8 integer kernel against the f32 model it was quantised from.
+#[derive(Clone, Debug, Serialize)]
+pub struct Quantization {
+    pub validation_epochs: usize,
+    /// Largest |int - f32| predicted shift over the validation epochs, metres.
+    pub max_abs_diff_m: Option<f64>,
+    /// Largest |int - f32| / strategy-1 threshold of the epoch's profile.
+    pub ratio_to_threshold: Option<f64>,
+    /// Every clean drive and scenario gave the same decisions (ran, fired, degraded, reasons,
+    /// alarm) at every epoch up to and including the first alarm: the same alarm, at the same
+    /// epoch, for the same reasons.
+    pub verdicts_identical: bool,
+    pub streams_compared: usize,
+    pub streams_differing: Vec<String>,
+    /// Streams whose per-epoch decisions differ anywhere, also after the (latched) first alarm,
+    /// where the spoofed inputs drive both kernels far outside the training range.
+    pub streams_differing_after_alarm: Vec<String>,
+}
+
+/// One rate of the drift sweep: the planned slow-drift scenarios (same drives, onsets and
+/// directions) replayed at this rate.
+#[derive(Clone, Debug, Serialize)]
+pub struct DriftSweepPoint {
+    pub rate_mps: f64,
+    pub along_scenarios: usize,
+    pub along_within_10s: usize,
+    pub across_scenarios: usize,
+    pub across_within_10s: usize,
+}

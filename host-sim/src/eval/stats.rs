@@ -1,0 +1,188 @@
+//! How verdicts become the report's numbers: alarm episodes, percentiles, verdict digests, the
+//! per-kind statistics, the predictors on their validation epochs, the int8 fidelity.
+
+use super::results::*;
+use crate::dataset::Drive;
+use crate::detect::{self, PredictorKind};
+use crate::lstm;
+use detector_core::fusion::Verdict;
+use detector_core::profile::ReceiverProfile;
+use detector_core::strategy::StrategyId;
+use gnss_data::attack::{self, AttackKind};
+use std::collections::BTreeMap;
+
+/// Rising edges of "some strategy fired": one per alarm episode.
+pub fn alarm_episodes(v: &[Verdict]) -> usize {
+    let mut n = 0;
+    let mut prev = false;
+    for x in v {
+        let f = !x.fired.is_empty();
+        if f && !prev {
+            n += 1;
+        }
+        prev = f;
+    }
+    n
+}
+
+const PROFILES: [&ReceiverProfile; 2] = [&detector_core::profile::UBLOX_10HZ, &detector_core::profile::LOGGER_1HZ];
+
+pub fn thresholds(kind: PredictorKind) -> [f64; 2] {
+    PROFILES.map(|p| detect::config(p, kind).shift.threshold_m(p.nominal_dt_s) as f64)
+}
+
+/// Signed validation errors `[10 Hz, 1 Hz]` of a predictor, metres.
+fn validation_errors(kind: PredictorKind, runs: &[lstm::Run], drives: &[Drive]) -> [Vec<f64>; 2] {
+    use detector_core::strategy::location_shift::lstm::LstmPredictor;
+    match kind {
+        PredictorKind::Kinematic => lstm::kinematic_errors(runs, drives),
+        PredictorKind::Lstm => lstm::lstm_errors(&mut LstmPredictor::int(detect::default_lstm()).expect("int8"), runs),
+        PredictorKind::LstmF32 => lstm::lstm_errors(&mut LstmPredictor::reference(detect::default_lstm_f32()), runs),
+    }
+}
+
+/// The validation runs of the default LSTM's split (empty on simulated data).
+pub fn validation_runs(drives: &[Drive]) -> Vec<lstm::Run> {
+    lstm::split(drives, &lstm::TrainOptions::default()).1
+}
+
+pub fn predictor_stats(kind: PredictorKind, drives: &[Drive], r: &Report) -> PredictorStats {
+    let runs = validation_runs(drives);
+    let e = validation_errors(kind, &runs, drives);
+    let th = thresholds(kind);
+    let all: Vec<f64> = e[0].iter().chain(&e[1]).copied().collect();
+    let pooled = lstm::ErrStats::of(&all);
+    let mut profiles = BTreeMap::new();
+    for (i, p) in PROFILES.iter().enumerate() {
+        let st = lstm::ErrStats::of(&e[i]);
+        let some = |v: f64| (st.epochs > 0).then_some(v);
+        profiles.insert(p.name, ProfileErr { validation_epochs: st.epochs, rmse_m: some(st.rmse_m), max_abs_m: some(st.max_abs_m), threshold_m: th[i] });
+    }
+    PredictorStats {
+        rmse_m: (!all.is_empty()).then_some(pooled.rmse_m),
+        max_abs_m: (!all.is_empty()).then_some(pooled.max_abs_m),
+        threshold_m: th[0].max(th[1]),
+        profiles,
+        detection_rate: r.attacks.iter().map(|(k, s)| (*k, s.detection_rate)).collect(),
+        rate_within_10s: r.attacks.iter().map(|(k, s)| (*k, s.rate_within_10s)).collect(),
+        false_alarms: r.clean.false_alarms,
+        s1_epochs_clean: r.clean.per_drive.iter().map(|c| c.s1_epochs).sum(),
+        s1_lstm_epochs_clean: r.clean.per_drive.iter().map(|c| c.s1_lstm_epochs).sum(),
+    }
+}
+
+/// Compares the int8 run with the f32 run: predictions on the validation epochs, and verdict
+/// digests of every clean drive and scenario.
+pub fn quantization(drives: &[Drive], int: &Report, f32r: &Report) -> Quantization {
+    let runs = validation_runs(drives);
+    let a = validation_errors(PredictorKind::Lstm, &runs, drives);
+    let b = validation_errors(PredictorKind::LstmF32, &runs, drives);
+    let th = thresholds(PredictorKind::Lstm);
+    let (mut diff, mut ratio, mut n) = (None::<f64>, None::<f64>, 0);
+    for c in 0..2 {
+        for (x, y) in a[c].iter().zip(&b[c]) {
+            let d = (x - y).abs();
+            diff = Some(diff.map_or(d, |m| m.max(d)));
+            ratio = Some(ratio.map_or(d / th[c], |m| m.max(d / th[c])));
+            n += 1;
+        }
+    }
+    let (mut differing, mut after) = (vec![], vec![]);
+    for (x, y) in int.clean.per_drive.iter().zip(&f32r.clean.per_drive) {
+        if x.decisions_to_alarm != y.decisions_to_alarm {
+            differing.push(format!("clean {}", x.drive));
+        } else if x.decisions != y.decisions {
+            after.push(format!("clean {}", x.drive));
+        }
+    }
+    for (x, y) in int.scenarios.iter().zip(&f32r.scenarios) {
+        if x.decisions_to_alarm != y.decisions_to_alarm {
+            differing.push(x.id.clone());
+        } else if x.decisions != y.decisions {
+            after.push(x.id.clone());
+        }
+    }
+    Quantization {
+        validation_epochs: n,
+        max_abs_diff_m: diff,
+        ratio_to_threshold: ratio,
+        verdicts_identical: differing.is_empty(),
+        streams_compared: int.clean.per_drive.len() + int.scenarios.len(),
+        streams_differing: differing,
+        streams_differing_after_alarm: after,
+    }
+}
+
+pub fn pct(sorted: &[f64], q: f64) -> Option<f64> {
+    if sorted.is_empty() {
+        return None;
+    }
+    // Nearest rank.
+    let i = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1;
+    Some(sorted[i])
+}
+
+/// The firmware's verdict digest of a verdict stream, in hex.
+pub fn digest(v: &[Verdict]) -> String {
+    let mut d = gnss_guard_board::pipeline::Digest::default();
+    for x in v {
+        d.add(x);
+    }
+    format!("{:016x}", d.0)
+}
+
+/// [`decisions`] up to and including the first alarm (all of it without an alarm).
+pub fn decisions_to_alarm(v: &[Verdict]) -> String {
+    let n = v.iter().position(|x| x.alarm).map_or(v.len(), |i| i + 1);
+    decisions(&v[..n])
+}
+
+/// FNV-1a of the decisions of a verdict stream, in hex.
+pub fn decisions(v: &[Verdict]) -> String {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for x in v {
+        for b in x.epoch.to_le_bytes().into_iter().chain([x.ran.0, x.fired.0, x.degraded.0, x.alarm as u8]).chain(x.reasons.0.to_le_bytes()) {
+            h = (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    format!("{h:016x}")
+}
+
+/// Per attack kind: detection, time to detect, which strategies fired (a row of Table 3).
+pub fn kind_stats(scenarios: &[Scenario], drives: &[Drive]) -> BTreeMap<&'static str, KindStats> {
+    let mut attacks = BTreeMap::new();
+    for kind in AttackKind::ALL {
+        let sc: Vec<&Scenario> = scenarios.iter().filter(|s| s.kind == kind).collect();
+        let mut ttd: Vec<f64> = sc.iter().filter_map(|s| s.ttd_s).collect();
+        ttd.sort_by(f64::total_cmp);
+        let mut ep: Vec<f64> = sc.iter().filter_map(|s| s.ttd_epochs.map(|e| e as f64)).collect();
+        ep.sort_by(f64::total_cmp);
+        let mut strategies = BTreeMap::new();
+        for st in StrategyId::ALL {
+            strategies.insert(st.name(), sc.iter().filter(|s| s.strategies.contains(&st.name())).count());
+        }
+        let mut sources: Vec<String> = sc.iter().map(|s| s.source.clone()).collect();
+        sources.sort();
+        sources.dedup();
+        let detected = sc.iter().filter(|s| s.detected).count();
+        let within = sc.iter().filter(|s| s.ttd_s.is_some_and(|t| t <= 10.0)).count();
+        attacks.insert(kind.name(), KindStats {
+            scenarios: sc.len(),
+            detected,
+            detection_rate: if sc.is_empty() { 0.0 } else { detected as f64 / sc.len() as f64 },
+            detected_within_10s: within,
+            rate_within_10s: if sc.is_empty() { 0.0 } else { within as f64 / sc.len() as f64 },
+            ttd_median_s: pct(&ttd, 0.5),
+            ttd_p95_s: pct(&ttd, 0.95),
+            ttd_max_s: ttd.last().copied(),
+            ttd_median_epochs: pct(&ep, 0.5),
+            ttd_p95_epochs: pct(&ep, 0.95),
+            ttd_max_epochs: ep.last().copied(),
+            strategies,
+            sources,
+            missed: sc.iter().filter(|s| !s.detected).map(|s| format!("{} ({}, t={:.1}, {})", s.id, s.drive, s.onset_t, s.params)).collect(),
+            hosting_drives: drives.iter().filter(|d| d.has_wheel_speed() && !attack::candidate_onsets(kind, &d.samples).is_empty()).count(),
+        });
+    }
+    attacks
+}
