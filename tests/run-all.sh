@@ -12,10 +12,19 @@ if ! command -v qemu-system-arm >/dev/null; then
   $sudo_ apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo_ apt-get install -y -qq qemu-system-arm >/dev/null
 fi
 
-echo "== clippy (host workspace, warnings are errors)"
-cargo clippy --workspace --all-targets -q -- -D warnings
-echo "== host tests"
-cargo test --workspace
+echo "== layers: no import cycle between the files of a crate"
+python3 tests/check-layers.py detector-core/src host-sim/src host-sim/data/src firmware/board/src firmware/profile/src
+echo "== host-sim builds without training (no burn), and the firmware workspace without host tools"
+if cargo tree -q -p host-sim -e normal --no-default-features | grep -qE ' burn(-[a-z]+)? v'; then
+  echo "host-sim without features must not depend on burn" >&2; exit 1
+fi
+if grep -qE '^name = "(burn|plotters|host-sim)"' firmware/Cargo.lock; then
+  echo "firmware/Cargo.lock must not contain burn, plotters or host-sim" >&2; exit 1
+fi
+echo "== clippy (host workspace, every feature, warnings are errors)"
+cargo clippy --workspace --all-targets --all-features -q -- -D warnings
+echo "== host tests (every feature: the LSTM training tests need burn)"
+cargo test --workspace --all-features
 echo "== detector-core for Cortex-M4F (no_std, no alloc)"
 if grep -rnE 'extern crate (alloc|std)|alloc::' detector-core/src; then
   echo "detector-core must not use alloc or std" >&2; exit 1
