@@ -4,7 +4,7 @@
 //! the verdict says so with a reason code, and it can never raise an alarm. A time discontinuity
 //! (time not increasing, or an epoch longer than [`ShiftConfig::max_dt_s`]) or an invalid sample
 //! resets every strategy's memory, so old state is never compared with new data. What the
-//! consistency detectors learnt about the car itself (wheel-speed scale, gyro bias) is kept
+//! track check learnt about the car itself (delay, wheel-speed scale, gyro bias, noise) is kept
 //! across a forward gap of up to [`KEEP_LEARNT_GAP_S`].
 //!
 //! The alarm latches: once any strategy fires, `alarm` stays true, with the first alarm's epoch,
@@ -13,7 +13,7 @@
 
 use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
-use crate::strategy::consistency::{ConsistencyConfig, HeadingCheck, ResidualCusum, SpeedCheck};
+use crate::strategy::track::{TrackCheck, TrackConfig, TrackOutcome};
 use crate::strategy::location_shift::judge::{ShiftConfig, ShiftOutcome, ShiftPredictor};
 use crate::strategy::location_shift::predictor::Predictor;
 use crate::strategy::motion::{Disagreement, Motion, MotionConfig, MotionOutcome};
@@ -27,7 +27,7 @@ pub struct Config {
     pub shift: ShiftConfig,
     pub motion: MotionConfig,
     pub turn: TurnConfig,
-    pub consistency: ConsistencyConfig,
+    pub track: TrackConfig,
 }
 
 impl Config {
@@ -38,7 +38,7 @@ impl Config {
             shift: ShiftConfig::for_profile(p),
             motion: MotionConfig::for_profile(p),
             turn: TurnConfig::default(),
-            consistency: ConsistencyConfig::for_profile(p),
+            track: TrackConfig::for_profile(p),
         }
     }
 
@@ -50,7 +50,7 @@ impl Config {
     }
 }
 
-/// The longest forward gap in the epochs across which the consistency detectors keep what they
+/// The longest forward gap in the epochs across which the track check keeps what it
 /// learnt about the car, seconds (tunnels, jamming; a longer gap is taken as another trip).
 pub const KEEP_LEARNT_GAP_S: f64 = 60.0;
 
@@ -67,12 +67,12 @@ pub enum Reason {
     GnssStandingWheelsMoving = 3,
     /// S2: steering and GNSS disagree about a turn.
     TurnMismatch = 4,
-    /// Beyond the paper: the residual CUSUM crossed its threshold (a slow bias over minutes).
-    ResidualDrift = 5,
-    /// Beyond the paper: GNSS speed and wheel speed disagree.
-    SpeedMismatch = 6,
-    /// Beyond the paper: GNSS course and yaw rate disagree.
-    HeadingMismatch = 7,
+    /// Beyond the paper: the GNSS track and the car's dead reckoning disagree over 10 s.
+    Track10s = 5,
+    /// Beyond the paper: the same over 30 s (slower drifts).
+    Track30s = 6,
+    /// Degraded: the track check lacks wheel speed or a valid position.
+    NoTrackInputs = 7,
     /// Degraded: the predictor lacks its inputs (e.g. wheel speed stale or missing).
     NoPrediction = 8,
     /// Degraded: no location shift (first epoch, or after a reset).
@@ -87,9 +87,9 @@ pub enum Reason {
     NoTurnInputs = 13,
     /// Degraded: S1 waits for the receiver to settle after start-up.
     GnssSettling = 14,
-    /// Beyond the paper: the residual summed over the window crossed its threshold (a drift or
-    /// biased shifts).
-    ResidualWindow = 15,
+    /// Degraded: the track check's learnt noise leaves it blind to drifts slower than its bound:
+    /// it does not judge.
+    TrackUninformative = 15,
 }
 
 impl Reason {
@@ -99,9 +99,9 @@ impl Reason {
         Reason::GnssMovingWheelsStanding,
         Reason::GnssStandingWheelsMoving,
         Reason::TurnMismatch,
-        Reason::ResidualDrift,
-        Reason::SpeedMismatch,
-        Reason::HeadingMismatch,
+        Reason::Track10s,
+        Reason::Track30s,
+        Reason::NoTrackInputs,
         Reason::NoPrediction,
         Reason::NoGnssShift,
         Reason::NoMotionInputs,
@@ -109,7 +109,7 @@ impl Reason {
         Reason::InvalidSample,
         Reason::NoTurnInputs,
         Reason::GnssSettling,
-        Reason::ResidualWindow,
+        Reason::TrackUninformative,
     ];
     pub const fn name(self) -> &'static str {
         match self {
@@ -118,9 +118,9 @@ impl Reason {
             Reason::GnssMovingWheelsStanding => "gnss_moving_wheels_standing",
             Reason::GnssStandingWheelsMoving => "gnss_standing_wheels_moving",
             Reason::TurnMismatch => "turn_mismatch",
-            Reason::ResidualDrift => "residual_drift",
-            Reason::SpeedMismatch => "speed_mismatch",
-            Reason::HeadingMismatch => "heading_mismatch",
+            Reason::Track10s => "track_10s",
+            Reason::Track30s => "track_30s",
+            Reason::NoTrackInputs => "no_track_inputs",
             Reason::NoPrediction => "no_prediction",
             Reason::NoGnssShift => "no_gnss_shift",
             Reason::NoMotionInputs => "no_motion_inputs",
@@ -128,7 +128,7 @@ impl Reason {
             Reason::InvalidSample => "invalid_sample",
             Reason::NoTurnInputs => "no_turn_inputs",
             Reason::GnssSettling => "gnss_settling",
-            Reason::ResidualWindow => "residual_window",
+            Reason::TrackUninformative => "track_uninformative",
         }
     }
 }
@@ -175,12 +175,8 @@ pub struct Verdict {
     pub motion: Option<MotionOutcome>,
     /// Strategy 2's judgement, at the epochs where a steering segment ended or GNSS turned.
     pub turn: Option<TurnOutcome>,
-    /// Beyond the paper: residual CUSUM statistic (m), residual summed over the window (m),
-    /// mean speed difference (m/s) and heading difference (deg) over the window.
-    pub cusum_m: Option<f32>,
-    pub residual_window_m: Option<f32>,
-    pub speed_diff_mps: Option<f32>,
-    pub heading_diff_deg: Option<f32>,
+    /// Beyond the paper: the track check's windows, learnt delay and scale, when it ran.
+    pub track: Option<TrackOutcome>,
     /// A strategy that ran is still in its start-up warm-up: strategy 1 waiting for the receiver
     /// to settle, or a beyond-the-paper detector still learning the car (its scale, its gyro).
     pub learning: bool,
@@ -197,9 +193,7 @@ pub struct Detector<'t, P: ShiftPredictor> {
     predictor: P,
     motion: Motion,
     turn: Option<TurnStrategy<'t>>,
-    cusum: ResidualCusum,
-    speed: SpeedCheck,
-    heading: HeadingCheck,
+    track: TrackCheck,
     prev_t: Option<f64>,
     epoch: u32,
     first_alarm: Option<FirstAlarm>,
@@ -216,9 +210,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             predictor,
             motion: Motion::new(cfg.motion),
             turn: None,
-            cusum: ResidualCusum::default(),
-            speed: SpeedCheck::default(),
-            heading: HeadingCheck::default(),
+            track: TrackCheck::new(cfg.track),
             prev_t: None,
             epoch: 0,
             first_alarm: None,
@@ -242,24 +234,21 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
     }
 
     /// Restarts every strategy. With `keep_learnt` (a forward gap of at most
-    /// [`KEEP_LEARNT_GAP_S`]) the consistency detectors keep what they learnt about the car
-    /// (wheel-speed scale, gyro bias): a GNSS gap, which a spoofer can cause, must not reopen
-    /// their warm-up. After a longer gap (another trip), time going backwards or an invalid
-    /// sample they learn afresh.
+    /// [`KEEP_LEARNT_GAP_S`]) the track check keeps what it learnt about the car (delay,
+    /// wheel-speed scale, gyro bias, noise) and bridges the gap by dead reckoning where the
+    /// vehicle signals span it: a GNSS gap, which a spoofer can cause, must neither reopen its
+    /// warm-up nor hide a jump. After a longer gap (another trip), time going backwards or an
+    /// invalid sample it learns afresh.
     fn restart(&mut self, keep_learnt: bool) {
         self.predictor.reset();
         self.motion.reset();
         if let Some(t) = self.turn.as_mut() {
             t.reset();
         }
-        if keep_learnt {
-            self.cusum.restart();
-            self.speed.restart();
-            self.heading.restart();
-        } else {
-            self.cusum.reset();
-            self.speed.reset();
-            self.heading.reset();
+        // A forward gap the track check handles itself: it bridges it by dead reckoning when
+        // it can, else starts its windows over keeping what it learnt.
+        if !keep_learnt {
+            self.track.reset();
         }
     }
 
@@ -276,26 +265,21 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             shift: None,
             motion: None,
             turn: None,
-            cusum_m: None,
-            residual_window_m: None,
-            speed_diff_mps: None,
-            heading_diff_deg: None,
+            track: None,
             learning: false,
             alarm: false,
             first_alarm: self.first_alarm,
         };
         let has_turn = self.turn.is_some();
-        let consistency_on = self.cfg.consistency.enabled;
+        let track_on = self.cfg.track.enabled;
         let all_degraded = |v: &mut Verdict| {
             v.degraded.insert(StrategyId::LocationShift);
             v.degraded.insert(StrategyId::Motion);
             if has_turn {
                 v.degraded.insert(StrategyId::Turn);
             }
-            if consistency_on {
-                v.degraded.insert(StrategyId::ResidualCusum);
-                v.degraded.insert(StrategyId::Speed);
-                v.degraded.insert(StrategyId::Heading);
+            if track_on {
+                v.degraded.insert(StrategyId::Track);
             }
         };
         if !s.t.is_finite() || !s.pos.is_valid() {
@@ -344,28 +328,9 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                     v.reasons.insert(if o.residual_m > 0.0 { Reason::ShiftExceedsPrediction } else { Reason::ShiftBelowPrediction });
                 }
                 v.shift = Some(o);
-                if consistency_on {
-                    let wheel = s.wheel_speed().get().unwrap_or(0.0);
-                    let r = self.cusum.step(&self.cfg.consistency, shift, pred, s.dt_s, wheel);
-                    v.ran.insert(StrategyId::ResidualCusum);
-                    v.cusum_m = Some(r.cusum_m);
-                    v.residual_window_m = r.window_m;
-                    if r.cusum_fired {
-                        v.reasons.insert(Reason::ResidualDrift);
-                    }
-                    if r.window_fired {
-                        v.reasons.insert(Reason::ResidualWindow);
-                    }
-                    if r.cusum_fired || r.window_fired {
-                        v.fired.insert(StrategyId::ResidualCusum);
-                    }
-                }
             }
             (shift, pred) => {
                 v.degraded.insert(StrategyId::LocationShift);
-                if consistency_on {
-                    v.degraded.insert(StrategyId::ResidualCusum);
-                }
                 if pred.is_none() {
                     v.reasons.insert(Reason::NoPrediction);
                 }
@@ -414,38 +379,35 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             }
         }
 
-        // Beyond the paper: speed and heading consistency.
-        if consistency_on {
-            let c = self.cfg.consistency;
-            match self.speed.step(&c, s) {
-                Some(o) => {
-                    v.ran.insert(StrategyId::Speed);
-                    v.speed_diff_mps = Some(o.diff);
-                    if o.fired {
-                        v.fired.insert(StrategyId::Speed);
-                        v.reasons.insert(Reason::SpeedMismatch);
-                    }
+        // Beyond the paper: the track check.
+        if track_on {
+            match self.track.step(s) {
+                Some(o) if o.uninformative => {
+                    v.degraded.insert(StrategyId::Track);
+                    v.reasons.insert(Reason::TrackUninformative);
+                    v.track = Some(o);
                 }
-                None => v.degraded.insert(StrategyId::Speed),
-            }
-            match self.heading.step(&c, s) {
                 Some(o) => {
-                    v.ran.insert(StrategyId::Heading);
-                    v.heading_diff_deg = Some(o.diff);
-                    if o.fired {
-                        v.fired.insert(StrategyId::Heading);
-                        v.reasons.insert(Reason::HeadingMismatch);
+                    v.ran.insert(StrategyId::Track);
+                    if o.fired.iter().any(|f| *f) {
+                        v.fired.insert(StrategyId::Track);
                     }
+                    if o.fired[0] {
+                        v.reasons.insert(Reason::Track10s);
+                    }
+                    if o.fired[1] {
+                        v.reasons.insert(Reason::Track30s);
+                    }
+                    v.track = Some(o);
                 }
-                None => v.degraded.insert(StrategyId::Heading),
+                None => {
+                    v.degraded.insert(StrategyId::Track);
+                    v.reasons.insert(Reason::NoTrackInputs);
+                }
             }
         }
 
-        let c = &self.cfg.consistency;
-        v.learning = !self.settled
-            || (v.ran.contains(StrategyId::ResidualCusum) && self.cusum.warming(c))
-            || (v.ran.contains(StrategyId::Speed) && self.speed.warming(c))
-            || (v.ran.contains(StrategyId::Heading) && self.heading.warming(c));
+        v.learning = !self.settled || v.track.is_some_and(|t| t.learning);
         if !v.fired.is_empty() && self.first_alarm.is_none() {
             self.first_alarm = Some(FirstAlarm { epoch, t: s.t });
         }

@@ -22,15 +22,6 @@ pub struct ReceiverProfile {
     /// Standing / moving thresholds on the speed from position change, m/s (noisier).
     pub pos_speed_stop_mps: f32,
     pub pos_speed_move_mps: f32,
-    /// Residual CUSUM allowance and decision threshold, metres (see `strategy::consistency`).
-    pub cusum_k_m: f32,
-    pub cusum_h_m: f32,
-    /// Threshold on the residual summed over the consistency window, metres.
-    pub window_h_m: f32,
-    /// Speed check tolerance, m/s, plus a fraction of the speed.
-    pub speed_tol_mps: f32,
-    /// Heading check tolerance, degrees over the window.
-    pub heading_tol_deg: f32,
 }
 
 /// NEO-M8 datasheet: CEP 2.5 m.
@@ -46,11 +37,6 @@ pub const UBLOX_10HZ: ReceiverProfile = ReceiverProfile {
     gnss_speed_move_mps: 1.5,
     pos_speed_stop_mps: 1.0,
     pos_speed_move_mps: 3.0,
-    cusum_k_m: CUSUM_10HZ.0,
-    cusum_h_m: CUSUM_10HZ.1,
-    window_h_m: WINDOW_H_10HZ_M,
-    speed_tol_mps: SPEED_TOL_10HZ_MPS,
-    heading_tol_deg: HEADING_TOL_10HZ_DEG,
 };
 
 /// 1 Hz data loggers (CSS CANedge GNSS, OpenXC vehicle interface, DrivePlotR phone logs).
@@ -64,34 +50,7 @@ pub const LOGGER_1HZ: ReceiverProfile = ReceiverProfile {
     gnss_speed_move_mps: 1.5,
     pos_speed_stop_mps: 1.0,
     pos_speed_move_mps: 3.0,
-    cusum_k_m: CUSUM_1HZ.0,
-    cusum_h_m: CUSUM_1HZ.1,
-    window_h_m: WINDOW_H_1HZ_M,
-    speed_tol_mps: SPEED_TOL_1HZ_MPS,
-    heading_tol_deg: HEADING_TOL_1HZ_DEG,
 };
-
-// Beyond the paper, measured by `host-sim calibrate ../shared/data/drives` on the clean drives
-// with strategy 1 on either predictor, restarting the detectors at every 5 s of each drive:
-// CUSUM k = p90 of |scale-corrected residual|; h and the 10 s window's threshold on the
-// residual sum = 1.25 x the largest clean value, but at least 2 x `gnss_error_m` (a sum over a
-// stretch contains the change of the receiver's position error between its ends, which the
-// clean data may be too short to show: at 10 Hz they are one minute); the mean speed
-// difference (beyond 3 % of the speed) and the heading difference (beyond 20 % of the angle
-// turned): 1.25 x the largest clean value.
-// 10 Hz: k 0.2562 m, largest CUSUM 0.595 m, window 1.977 m (both below the 5 m floor), speed
-// excess 0.0 m/s (only 3 % of the speed remains), heading 2.43 deg (only comma2k19 has GNSS
-// speed and yaw at 10 Hz: one minute of data, half of it the detectors' warm-up).
-// 1 Hz (css_canedge x2, openxc_ford): k 0.6036 m, largest CUSUM 23.27 m, window 15.89 m, speed
-// excess 0.521 m/s, heading 8.89 deg.
-pub const CUSUM_10HZ: (f32, f32) = (0.2562, 2.0 * UBLOX_GNSS_ERROR_M);
-pub const CUSUM_1HZ: (f32, f32) = (0.6036, 29.08);
-pub const WINDOW_H_10HZ_M: f32 = 2.0 * UBLOX_GNSS_ERROR_M;
-pub const WINDOW_H_1HZ_M: f32 = 19.87;
-pub const SPEED_TOL_10HZ_MPS: f32 = 0.0;
-pub const SPEED_TOL_1HZ_MPS: f32 = 0.6512;
-pub const HEADING_TOL_10HZ_DEG: f32 = 3.043;
-pub const HEADING_TOL_1HZ_DEG: f32 = 11.12;
 
 /// Measured with `host-sim calibrate ../shared/data/drives`: max |GNSS shift - kinematic| over
 /// all 2,682 judged epochs of the 10 Hz drives with wheel speed (comma2k19, udacity_ch2) was

@@ -78,6 +78,9 @@ pub struct Fix {
     pub speed_mps: Option<f32>,
     /// Course over ground, degrees, 0 = north, clockwise, when the receiver reports it.
     pub course_deg: Option<f32>,
+    /// The receiver's own estimate of its horizontal position error (1 sigma), metres, when it
+    /// reports one (NMEA GST, UBX NAV-PVT hAcc).
+    pub h_acc_m: Option<f32>,
 }
 
 /// Everything known at one GNSS epoch, synchronised.
@@ -92,8 +95,16 @@ pub struct Sample {
     pub shift_m: Reading,
     pub gnss_speed: Reading,
     pub gnss_course: Reading,
+    /// The receiver's horizontal accuracy (1 sigma), metres.
+    pub gnss_h_acc: Reading,
     /// Vehicle signals indexed by [`Signal::index`].
     pub signals: [Reading; Signal::COUNT],
+    /// Distance driven since the previous epoch, metres: the wheel speed's integral over its
+    /// observations (`Stale` across a gap in them, `Missing` on the first epoch of a source
+    /// without wheel speed).
+    pub dist_m: Reading,
+    /// Heading change since the previous epoch, degrees, + = left: the yaw rate's integral.
+    pub turn_deg: Reading,
 }
 
 impl Sample {

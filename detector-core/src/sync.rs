@@ -18,6 +18,13 @@
 //! [`SyncConfig::reset_backjump_s`]. All inputs share one clock, so that is taken as a clock
 //! reset and restarts synchronisation (pending epochs are emitted first, with unresolved
 //! signals stale).
+//!
+//! Dead reckoning needs more than a value at each epoch: a gyro sampled at 100 Hz and read at a
+//! 1 Hz epoch aliases its noise into degrees of heading per second. So the synchroniser also
+//! integrates wheel speed and yaw rate over their observations (trapezoids) and gives each
+//! sample the distance driven and the heading change since the previous epoch
+//! ([`Sample::dist_m`], [`Sample::turn_deg`]): exact whatever the epoch rate, and across a GNSS
+//! outage too as long as the signal itself has no gap over `max_gap_s`.
 
 use crate::geo::{haversine_m, EARTH_RADIUS_PAPER_M};
 use crate::sample::{Fix, Reading, Sample, Signal};
@@ -64,11 +71,23 @@ pub struct SyncCounters {
 struct Obs {
     t: f64,
     v: f32,
+    /// The signal's integral from its first observation to `t` (trapezoids), and the stretch
+    /// it belongs to (a gap over `max_gap_s` between observations starts a new stretch).
+    cum: Integral,
+}
+
+/// A running integral of a signal, within one stretch of gap-free observations.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Integral {
+    value: f64,
+    stretch: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Slot {
-    Done(Reading),
+    /// The reading, and the signal's integral up to the epoch when the epoch lies inside a
+    /// stretch of observations.
+    Done(Reading, Option<Integral>),
     Waiting,
 }
 
@@ -79,7 +98,7 @@ struct Pending {
 
 impl Pending {
     fn ready(&self) -> bool {
-        self.slots.iter().all(|s| matches!(s, Slot::Done(_)))
+        self.slots.iter().all(|s| matches!(s, Slot::Done(..)))
     }
 }
 
@@ -91,6 +110,8 @@ pub struct Synchronizer {
     clock: Option<f64>,
     last_fix_t: Option<f64>,
     prev_emitted: Option<Fix>,
+    /// The integrals at the previously emitted epoch.
+    prev_integrals: [Option<Integral>; Signal::COUNT],
     counters: SyncCounters,
 }
 
@@ -103,6 +124,7 @@ impl Synchronizer {
             clock: None,
             last_fix_t: None,
             prev_emitted: None,
+            prev_integrals: [None; Signal::COUNT],
             counters: SyncCounters::default(),
         }
     }
@@ -127,22 +149,36 @@ impl Synchronizer {
             return;
         }
         self.check_clock_reset(t, emit);
+        let gap = self.cfg.max_gap_s;
         let hist = &mut self.hist[sig.index()];
-        if let Some(last) = hist.back_mut() {
+        if let Some(last) = hist.back().copied() {
             if t < last.t {
                 self.counters.obs_out_of_order = self.counters.obs_out_of_order.wrapping_add(1);
                 return;
             } else if t == last.t {
-                last.v = v; // repeated timestamp: the newest value wins
+                // Repeated timestamp: the newest value wins, and the integral to it follows.
+                let before = hist.iter().rev().nth(1).copied();
+                let cum = match before {
+                    Some(b) => integrate(b, t, v, gap),
+                    None => last.cum,
+                };
+                if let Some(l) = hist.back_mut() {
+                    l.v = v;
+                    l.cum = cum;
+                }
                 self.resolve_waiting(sig);
                 self.tick(emit);
                 return;
             }
         }
+        let cum = match hist.back() {
+            Some(b) => integrate(*b, t, v, gap),
+            None => Integral { value: 0.0, stretch: 0 },
+        };
         if hist.is_full() {
             hist.pop_front();
         }
-        let _ = hist.push_back(Obs { t, v });
+        let _ = hist.push_back(Obs { t, v, cum });
         self.advance_clock(t);
         self.resolve_waiting(sig);
         self.tick(emit);
@@ -164,6 +200,7 @@ impl Synchronizer {
         let fix = Fix {
             speed_mps: fix.speed_mps.filter(|v| v.is_finite()),
             course_deg: fix.course_deg.filter(|v| v.is_finite()),
+            h_acc_m: fix.h_acc_m.filter(|v| v.is_finite() && *v > 0.0),
             ..fix
         };
         self.last_fix_t = Some(fix.t);
@@ -195,6 +232,7 @@ impl Synchronizer {
         self.clock = None;
         self.last_fix_t = None;
         self.prev_emitted = None;
+        self.prev_integrals = [None; Signal::COUNT];
     }
 
     /// All inputs share one clock: an input far behind the latest time is a clock reset.
@@ -216,7 +254,7 @@ impl Synchronizer {
     fn resolve(&self, sig: Signal, te: f64) -> Slot {
         let hist = &self.hist[sig.index()];
         if hist.is_empty() {
-            return Slot::Done(Reading::Missing);
+            return Slot::Done(Reading::Missing, None);
         }
         let gap = self.cfg.max_gap_s;
         // Last observation at or before the epoch, and the one after it.
@@ -230,22 +268,23 @@ impl Synchronizer {
             after = Some(*o);
         }
         match (before, after) {
-            (Some(b), _) if b.t == te => Slot::Done(Reading::Valid(b.v)),
-            (Some(b), _) if te - b.t > gap => Slot::Done(Reading::Stale),
+            (Some(b), _) if b.t == te => Slot::Done(Reading::Valid(b.v), Some(b.cum)),
+            (Some(b), _) if te - b.t > gap => Slot::Done(Reading::Stale, None),
             (Some(b), Some(a)) => {
                 if a.t - te > gap {
-                    Slot::Done(Reading::Stale)
+                    Slot::Done(Reading::Stale, None)
                 } else {
                     let w = ((te - b.t) / (a.t - b.t)) as f32;
-                    Slot::Done(Reading::Valid(b.v + (a.v - b.v) * w))
+                    let v = b.v + (a.v - b.v) * w;
+                    Slot::Done(Reading::Valid(v), Some(integrate(b, te, v, gap)))
                 }
             }
             (Some(_), None) => match self.clock {
-                Some(c) if c - te > gap => Slot::Done(Reading::Stale),
+                Some(c) if c - te > gap => Slot::Done(Reading::Stale, None),
                 _ => Slot::Waiting,
             },
             // Every kept observation is after the epoch: its predecessor is gone or never was.
-            (None, _) => Slot::Done(Reading::Stale),
+            (None, _) => Slot::Done(Reading::Stale, None),
         }
     }
 
@@ -273,7 +312,7 @@ impl Synchronizer {
                 if c - p.fix.t > gap {
                     for s in p.slots.iter_mut() {
                         if *s == Slot::Waiting {
-                            *s = Slot::Done(Reading::Stale);
+                            *s = Slot::Done(Reading::Stale, None);
                         }
                     }
                 }
@@ -290,12 +329,32 @@ impl Synchronizer {
             self.counters.overflow_emits = self.counters.overflow_emits.wrapping_add(1);
         }
         let mut signals = [Reading::Missing; Signal::COUNT];
-        for (r, s) in signals.iter_mut().zip(p.slots.iter()) {
-            *r = match s {
-                Slot::Done(r) => *r,
-                Slot::Waiting => Reading::Stale,
+        let mut integrals = [None; Signal::COUNT];
+        for ((r, i), s) in signals.iter_mut().zip(integrals.iter_mut()).zip(p.slots.iter()) {
+            (*r, *i) = match s {
+                Slot::Done(r, i) => (*r, *i),
+                Slot::Waiting => (Reading::Stale, None),
             };
         }
+        let first = self.prev_emitted.is_none();
+        // The integral since the previous epoch: within one stretch of observations only.
+        let since_prev = |sig: Signal| -> Reading {
+            let i = sig.index();
+            match (signals[i], integrals[i], self.prev_integrals[i]) {
+                (Reading::Missing, _, _) => Reading::Missing,
+                (_, Some(now), Some(prev)) if !first && now.stretch == prev.stretch => {
+                    let d = now.value - prev.value;
+                    if d.is_finite() {
+                        Reading::Valid(d as f32)
+                    } else {
+                        Reading::Stale
+                    }
+                }
+                _ => Reading::Stale,
+            }
+        };
+        let dist_m = since_prev(Signal::WheelSpeed);
+        let turn_deg = since_prev(Signal::YawRate);
         let (dt_s, shift_m) = match self.prev_emitted {
             Some(prev) if p.fix.t > prev.t => (
                 (p.fix.t - prev.t) as f32,
@@ -310,10 +369,25 @@ impl Synchronizer {
             shift_m,
             gnss_speed: Reading::from_opt(p.fix.speed_mps),
             gnss_course: Reading::from_opt(p.fix.course_deg),
+            gnss_h_acc: Reading::from_opt(p.fix.h_acc_m),
             signals,
+            dist_m,
+            turn_deg,
         };
         self.prev_emitted = Some(p.fix);
+        self.prev_integrals = integrals;
         emit(&sample);
+    }
+}
+
+/// The integral at `t` from the observation `b` before it, `v` the value at `t`: a new stretch
+/// when `t` is more than `gap` after `b`.
+fn integrate(b: Obs, t: f64, v: f32, gap: f64) -> Integral {
+    let dt = t - b.t;
+    if dt > gap {
+        Integral { value: b.cum.value, stretch: b.cum.stretch.wrapping_add(1) }
+    } else {
+        Integral { value: b.cum.value + dt * 0.5 * (b.v as f64 + v as f64), stretch: b.cum.stretch }
     }
 }
 
@@ -323,7 +397,7 @@ mod tests {
     use crate::geo::LatLon;
 
     fn fix(t: f64) -> Fix {
-        Fix { t, pos: LatLon::new(48.0, 11.0 + t * 1e-5), speed_mps: Some(1.0), course_deg: None }
+        Fix { t, pos: LatLon::new(48.0, 11.0 + t * 1e-5), speed_mps: Some(1.0), course_deg: None, h_acc_m: None }
     }
 
     fn collect(f: impl FnOnce(&mut Synchronizer, &mut dyn FnMut(&Sample))) -> heapless::Vec<Sample, 64> {

@@ -26,9 +26,9 @@ fn reading() -> impl Strategy<Value = Reading> {
 }
 
 fn sample() -> impl Strategy<Value = Sample> {
-    (wild_f64(), wild_f32(), wild_f64(), wild_f64(), reading(), reading(), reading(), proptest::array::uniform5(reading()))
-        .prop_map(|(t, dt_s, lat, lon, shift_m, gnss_speed, gnss_course, signals)| Sample {
-            t, dt_s, pos: LatLon::new(lat, lon), shift_m, gnss_speed, gnss_course, signals,
+    (wild_f64(), wild_f32(), wild_f64(), wild_f64(), (reading(), reading(), reading(), reading()), proptest::array::uniform5(reading()), (reading(), reading()))
+        .prop_map(|(t, dt_s, lat, lon, (shift_m, gnss_speed, gnss_course, gnss_h_acc), signals, (dist_m, turn_deg))| Sample {
+            t, dt_s, pos: LatLon::new(lat, lon), shift_m, gnss_speed, gnss_course, gnss_h_acc, signals, dist_m, turn_deg,
         })
 }
 
@@ -49,7 +49,9 @@ fn clean_with_jump(t0: f64) -> Vec<Sample> {
             shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, rep, EARTH_RADIUS_PAPER_M) as f32)),
             gnss_speed: Reading::Valid(10.0),
             gnss_course: Reading::Missing,
+            gnss_h_acc: Reading::Missing,
             signals,
+            ..Default::default()
         });
         prev = Some(rep);
     }
@@ -94,7 +96,7 @@ proptest! {
             if kind < 5 {
                 s.push_obs(Signal::ALL[kind as usize], t, v, &mut emit);
             } else {
-                s.push_fix(Fix { t, pos: LatLon::new(lat, lon), speed_mps: Some(v), course_deg: None }, &mut emit);
+                s.push_fix(Fix { t, pos: LatLon::new(lat, lon), speed_mps: Some(v), course_deg: None, h_acc_m: None }, &mut emit);
             }
         }
         s.flush(&mut emit);
@@ -104,7 +106,7 @@ proptest! {
         let base = 1e9;
         let mut e2 = |x: &Sample| got.push(*x);
         s.push_obs(Signal::WheelSpeed, base - 0.5, 1.0, &mut e2);
-        s.push_fix(Fix { t: base, pos: LatLon::new(1.0, 1.0), speed_mps: None, course_deg: None }, &mut e2);
+        s.push_fix(Fix { t: base, pos: LatLon::new(1.0, 1.0), speed_mps: None, course_deg: None, h_acc_m: None }, &mut e2);
         s.push_obs(Signal::WheelSpeed, base + 0.5, 3.0, &mut e2);
         prop_assert_eq!(got.len(), 1);
         prop_assert_eq!(got[0].wheel_speed(), Reading::Valid(2.0));

@@ -34,7 +34,7 @@ impl Drive {
                 Some(p) => haversine_m(p, rep, EARTH_RADIUS_PAPER_M) as f32 / dt as f32,
                 None => speed(k),
             };
-            samples.push(Sample { t: k as f64 * dt, dt_s, pos: rep, shift_m, gnss_speed: Reading::Valid(gs), gnss_course: Reading::Missing, signals });
+            samples.push(Sample { t: k as f64 * dt, dt_s, pos: rep, shift_m, gnss_speed: Reading::Valid(gs), gnss_course: Reading::Missing, gnss_h_acc: Reading::Missing, signals, ..Default::default() });
             prev_rep = Some(rep);
         }
         Drive { dt, samples }

@@ -69,7 +69,9 @@ fn drive(gnss_follows: bool, wheel_turns: bool) -> Vec<Sample> {
             shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, gp, EARTH_RADIUS_PAPER_M) as f32)),
             gnss_speed: Reading::Valid(v),
             gnss_course: Reading::Valid(detector_core::geo::wrap_360(gnss_heading) as f32),
+            gnss_h_acc: Reading::Missing,
             signals,
+            ..Default::default()
         });
         prev = Some(gp);
     }
@@ -163,7 +165,9 @@ fn bend_then_turn(hold_s: f64) -> Vec<Sample> {
             shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, p, EARTH_RADIUS_PAPER_M) as f32)),
             gnss_speed: Reading::Valid(v),
             gnss_course: Reading::Valid(heading as f32),
+            gnss_h_acc: Reading::Missing,
             signals,
+            ..Default::default()
         });
         prev = Some(p);
     }

@@ -2,7 +2,7 @@
 //! are made of: the kinematic predictor's absolute error per receiver profile, and the GNSS
 //! speeds seen while the wheels stand / turn.
 
-use crate::detect::{self, PredictorKind};
+use crate::detect;
 use gnss_data::input::{self, LoadOptions};
 use gnss_data::replay;
 use detector_core::fusion::Config;
@@ -29,20 +29,6 @@ pub struct ProfileStats {
     pub min_gnss_speed_moving_mps: f64,
     /// Smallest speed from position change while the wheel speed is above 1.0 m/s.
     pub min_pos_speed_moving_mps: f64,
-    /// Beyond the paper, over the consistency window: p90 of |scale-corrected residual| (the
-    /// CUSUM k), the largest CUSUM statistic on the clean drives with that k, the largest
-    /// |residual summed over the window|, the largest |mean GNSS - wheel speed| beyond 3 % of
-    /// the speed, the largest |GNSS course change - yaw integral| beyond 20 % of the angle
-    /// turned; each with where it occurred.
-    pub cusum_k_m: f64,
-    pub cusum_max_stat_m: f64,
-    pub cusum_worst: String,
-    pub window_max_m: f64,
-    pub window_worst: String,
-    pub speed_excess_max_mps: f64,
-    pub speed_worst: String,
-    pub heading_diff_max_deg: f64,
-    pub heading_worst: String,
 }
 
 fn pct(sorted: &[f64], q: f64) -> f64 {
@@ -106,90 +92,5 @@ pub fn run(files: &[PathBuf], opts: &LoadOptions, sync: SyncConfig) -> Result<BT
         st.rmse_m = if e.is_empty() { 0.0 } else { (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt() };
     }
     out.retain(|_, s| s.epochs > 0);
-    consistency(files, opts, sync, &mut out)?;
     Ok(out)
-}
-
-/// The beyond-the-paper detectors' numbers on the clean drives, with strategy 1 on either
-/// predictor (kinematic and LSTM): the thresholds must hold whichever one runs.
-fn consistency(files: &[PathBuf], opts: &LoadOptions, sync: SyncConfig, out: &mut BTreeMap<&'static str, ProfileStats>) -> Result<(), input::InputError> {
-    use detector_core::strategy::consistency::{HeadingCheck, ResidualCusum, SpeedCheck};
-    let mut drives = Vec::new();
-    for f in files {
-        let r = input::load(f, opts)?;
-        let (samples, _) = replay::synchronize(&r, sync);
-        let p = detect::profile_of(&samples);
-        for kind in [PredictorKind::Kinematic, PredictorKind::Lstm] {
-            let mut cfg = detect::config(p, kind);
-            cfg.consistency.enabled = false;
-            cfg.shift.settle_s = 0.0;
-            let verdicts = detect::run_with(&samples, cfg, kind);
-            drives.push((p.name, f.display().to_string(), cfg, samples.clone(), verdicts));
-        }
-    }
-    // Pass 1: the corrected residuals give k.
-    let mut res: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
-    for (name, _, cfg, samples, verdicts) in &drives {
-        let mut c = cfg.consistency;
-        c.cusum_k_m = 0.0;
-        c.cusum_h_m = f32::INFINITY;
-        let mut rc = ResidualCusum::default();
-        for (s, v) in samples.iter().zip(verdicts) {
-            if v.reasons.contains(detector_core::fusion::Reason::TimeDiscontinuity) {
-                rc.restart();
-            }
-            if let Some(o) = v.shift {
-                res.entry(name).or_default().push(rc.corrected(o.gnss_shift_m, o.predicted_m).abs() as f64);
-                rc.step(&c, o.gnss_shift_m, o.predicted_m, s.dt_s, s.wheel_speed().get().unwrap_or(0.0));
-            }
-        }
-    }
-    for (name, v) in res.iter_mut() {
-        v.sort_by(f64::total_cmp);
-        if let Some(st) = out.get_mut(name) {
-            st.cusum_k_m = pct(v, 0.9);
-        }
-    }
-    // Pass 2: the largest statistics with that k. The detectors restart at every 5 s of each
-    // drive (as a replay window or a power-up would), so the maxima hold whatever the start.
-    fn keep(max: &mut f64, worst: &mut String, x: f32, file: &str, t: f64) {
-        if x as f64 > *max {
-            *max = x as f64;
-            *worst = format!("{file} t={t:.1}");
-        }
-    }
-    for (name, file, cfg, samples, verdicts) in &drives {
-        let Some(st) = out.get_mut(name) else { continue };
-        let mut c = cfg.consistency;
-        c.cusum_k_m = st.cusum_k_m as f32;
-        let t_first = samples.first().map_or(0.0, |s| s.t);
-        let starts: Vec<usize> = (0..).map(|k| t_first + 5.0 * k as f64)
-            .map_while(|t| samples.iter().position(|s| s.t >= t))
-            .take(2000)
-            .collect();
-        for start in starts {
-            let (mut rc, mut sp, mut hd) = (ResidualCusum::default(), SpeedCheck::default(), HeadingCheck::default());
-            for (s, v) in samples.iter().zip(verdicts).skip(start).take(200_000) {
-                // As the detector does after a gap of up to 60 s: the learnt scales and bias stay
-                // (it relearns after longer ones; keeping them here is the stricter case).
-                if v.reasons.contains(detector_core::fusion::Reason::TimeDiscontinuity) {
-                    rc.restart();
-                    sp.restart();
-                    hd.restart();
-                }
-                if let Some(o) = v.shift {
-                    let r = rc.step(&c, o.gnss_shift_m, o.predicted_m, s.dt_s, s.wheel_speed().get().unwrap_or(0.0));
-                    keep(&mut st.cusum_max_stat_m, &mut st.cusum_worst, r.cusum_m, file, s.t);
-                    keep(&mut st.window_max_m, &mut st.window_worst, r.window_m.unwrap_or(0.0).abs(), file, s.t);
-                }
-                if let Some(o) = sp.step(&c, s) {
-                    keep(&mut st.speed_excess_max_mps, &mut st.speed_worst, o.diff.abs() - o.allowance, file, s.t);
-                }
-                if let Some(o) = hd.step(&c, s) {
-                    keep(&mut st.heading_diff_max_deg, &mut st.heading_worst, o.diff.abs() - o.allowance, file, s.t);
-                }
-            }
-        }
-    }
-    Ok(())
 }

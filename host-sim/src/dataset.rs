@@ -9,6 +9,7 @@ use gnss_data::input::{Format, Replay};
 use gnss_data::replay;
 
 /// A drive prepared for evaluation.
+#[derive(Clone)]
 pub struct Drive {
     pub name: String,
     pub source: String,

@@ -83,16 +83,21 @@ pub fn config(p: &ReceiverProfile, kind: PredictorKind) -> Config {
     c
 }
 
-fn run_detector<P: ShiftPredictor>(samples: &[Sample], cfg: Config, p: P) -> Vec<Verdict> {
-    let mut d = Detector::new(cfg, p).with_turns(default_templates());
+fn run_detector<P: ShiftPredictor>(samples: &[Sample], cfg: Config, p: P, set: TemplateSet) -> Vec<Verdict> {
+    let mut d = Detector::new(cfg, p).with_turns(set);
     samples.iter().map(|s| d.step(s)).collect()
 }
 
 /// Verdicts of the full detector (all strategies) with this predictor, one per sample.
 pub fn run_with(samples: &[Sample], cfg: Config, kind: PredictorKind) -> Vec<Verdict> {
+    run_with_templates(samples, cfg, kind, default_templates())
+}
+
+/// [`run_with`] with these turn templates.
+pub fn run_with_templates(samples: &[Sample], cfg: Config, kind: PredictorKind, set: TemplateSet) -> Vec<Verdict> {
     match kind {
-        PredictorKind::LstmF32 => run_detector(samples, cfg, WithFallback::new(LstmPredictor::reference(default_lstm_f32()))),
-        k => run_detector(samples, cfg, predictor(k)),
+        PredictorKind::LstmF32 => run_detector(samples, cfg, WithFallback::new(LstmPredictor::reference(default_lstm_f32())), set),
+        k => run_detector(samples, cfg, predictor(k), set),
     }
 }
 
@@ -126,11 +131,11 @@ pub fn verdict_json(v: &Verdict) -> Value {
         o["turn"] = json!({"steering": t.steering.name(), "distance": t.distance, "gnss_change_deg": t.gnss_change_deg, "steering_change_deg": t.steering_change_deg,
             "mismatch": t.mismatch.map(|m| format!("{m:?}")), "derived_steering": t.derived, "start_t": t.start_t, "end_t": t.end_t});
     }
-    // Beyond the paper: the consistency detectors' statistics, where they ran.
-    for (key, x) in [("cusum_m", v.cusum_m), ("residual_window_m", v.residual_window_m), ("speed_diff_mps", v.speed_diff_mps), ("heading_diff_deg", v.heading_diff_deg)] {
-        if let Some(x) = x {
-            o[key] = json!(x);
-        }
+    // Beyond the paper: the track check's windows and what it learnt.
+    if let Some(t) = v.track {
+        let win = |w: Option<detector_core::strategy::track::WindowOutcome>| w.map(|w| json!({"e_m": w.e_m, "threshold_m": w.threshold_m, "dist_m": w.dist_m, "z": w.z}));
+        o["track"] = json!({"w10s": win(t.windows[0]), "w30s": win(t.windows[1]), "delay_s": t.delay_s, "scale": t.scale, "rotation_deg": t.rotation_deg, "gyro_bias_degps": t.gyro_bias_degps, "heading": t.heading.name(), "turn_scale": t.turn_scale,
+            "learning": t.learning, "uninformative": t.uninformative, "bound_10s_mps": t.bound_10s_mps, "noise_s0_m": t.noise_s0_m, "noise_k": t.noise_k});
     }
     if let Some(f) = v.first_alarm {
         o["first_alarm"] = json!({"epoch": f.epoch, "t": f.t});
@@ -267,4 +272,9 @@ pub fn state_seconds(status: &[(f64, Value)]) -> BTreeMap<String, usize> {
         }
     }
     m
+}
+
+/// The track check's threshold on the 10 s discrepancy at this epoch, metres, when it judged.
+pub fn track_threshold_m(v: &Verdict) -> Option<f32> {
+    v.track.and_then(|t| t.windows[0]).map(|w| w.threshold_m)
 }

@@ -97,6 +97,8 @@ enum Cmd {
         /// turn-by-turn, overshoot, stop, wrong-turn, slow-drift, small-biased, direction, replay, jump
         #[arg(long, value_parser = parse_attack_kind)]
         kind: AttackKind,
+        #[command(flatten)]
+        params: AttackArgs,
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Onset time, seconds on the drive's clock (default: drawn from the seed among the times
@@ -109,11 +111,59 @@ enum Cmd {
         #[command(flatten)]
         load: LoadArgs,
     },
+    /// Write a clean drive transformed the way a new installation differs (not an attack), in the
+    /// common CSV layout. Without options, a nuisance of `--kind` drawn from `--seed`.
+    Nuisance {
+        /// delay, speed-course-1hz, wheel-speed, gyro, rate-switch, jitter, outage, combined
+        #[arg(long, value_parser = parse_nuisance_kind, default_value = "combined")]
+        kind: gnss_data::nuisance::NuisanceKind,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// GNSS position this late, seconds (with any of these options, only what they say is applied).
+        #[arg(long)]
+        pos_delay_s: Option<f64>,
+        /// GNSS speed and course this late, seconds.
+        #[arg(long)]
+        vel_delay_s: Option<f64>,
+        /// Speed and course from a separate 1 Hz receiver this late, seconds.
+        #[arg(long)]
+        vel_1hz_lag_s: Option<f64>,
+        /// Wheel speed times this, resampled at 2 Hz and rounded to 1 km/h.
+        #[arg(long)]
+        wheel_scale: Option<f64>,
+        /// Gyro bias, deg/s.
+        #[arg(long)]
+        gyro_bias_degps: Option<f64>,
+        /// Gyro scale.
+        #[arg(long)]
+        gyro_scale: Option<f64>,
+        /// Fix rate switching between 10, 5 and 1 Hz every this many seconds.
+        #[arg(long)]
+        rate_switch_s: Option<f64>,
+        /// Timestamp jitter, +- seconds.
+        #[arg(long)]
+        jitter_s: Option<f64>,
+        /// A GNSS outage START:LENGTH (seconds after the drive's start); repeatable.
+        #[arg(long, value_parser = parse_outage)]
+        outage: Vec<(f64, f64)>,
+        path: PathBuf,
+        #[arg(short, long)]
+        out: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
     /// Evaluate the detector on clean and attacked real drives; write report.json, report.md, figures.
     Eval {
         /// Data folder (with drives/); default ../shared/data or $GNSS_DATA_DIR.
         #[arg(long)]
         data: Option<PathBuf>,
+        /// How the data-derived numbers are fitted: each source judged with numbers fitted on the
+        /// others (`loso`, the default), or everything on everything (`in-sample`, for comparison).
+        #[arg(long, value_parser = ["loso", "in-sample"], default_value = "loso")]
+        protocol: String,
+        /// Draws of each nuisance kind per drive with wheel speed (0: no nuisance suite).
+        #[arg(long, default_value_t = 8)]
+        nuisance_variants: usize,
         /// Scenarios per attack kind.
         #[arg(long, default_value_t = 10)]
         scenarios: usize,
@@ -189,6 +239,65 @@ enum Cmd {
         #[command(flatten)]
         load: LoadArgs,
     },
+}
+
+/// Attack parameters fixed instead of drawn from the seed.
+#[derive(clap::Args, Clone, Debug, Default)]
+struct AttackArgs {
+    /// turn-by-turn, jump: the offset, metres.
+    #[arg(long)]
+    offset_m: Option<f64>,
+    /// turn-by-turn, jump: the offset's bearing, degrees.
+    #[arg(long)]
+    bearing_deg: Option<f64>,
+    /// stop: the spoofed speed, m/s.
+    #[arg(long)]
+    speed_mps: Option<f64>,
+    /// slow-drift: the rate, m/s.
+    #[arg(long)]
+    rate_mps: Option<f64>,
+    /// slow-drift: across the road (else along it).
+    #[arg(long)]
+    across: Option<bool>,
+    /// small-biased: the step per epoch, metres.
+    #[arg(long)]
+    step_m: Option<f64>,
+    /// direction: the rotation rate, deg/s (+ = clockwise).
+    #[arg(long, allow_hyphen_values = true)]
+    deg_per_s: Option<f64>,
+    /// replay: the delay, seconds.
+    #[arg(long)]
+    delay_s: Option<f64>,
+    /// wrong-turn on a straight road: turn right (else left).
+    #[arg(long)]
+    right: Option<bool>,
+}
+
+impl AttackArgs {
+    fn params(&self) -> attack::AttackParams {
+        attack::AttackParams {
+            offset_m: self.offset_m,
+            bearing_deg: self.bearing_deg,
+            speed_mps: self.speed_mps,
+            rate_mps: self.rate_mps,
+            across: self.across,
+            step_m: self.step_m,
+            deg_per_s: self.deg_per_s,
+            delay_s: self.delay_s,
+            right: self.right,
+        }
+    }
+}
+
+fn parse_nuisance_kind(s: &str) -> Result<gnss_data::nuisance::NuisanceKind, String> {
+    use gnss_data::nuisance::NuisanceKind;
+    NuisanceKind::from_name(s).ok_or_else(|| format!("expected one of {:?}", NuisanceKind::ALL.map(NuisanceKind::name)))
+}
+
+fn parse_outage(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(':').ok_or("expected START:LENGTH in seconds")?;
+    let (a, b) = (a.parse::<f64>().map_err(|e| e.to_string())?, b.parse::<f64>().map_err(|e| e.to_string())?);
+    if a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0 { Ok((a, b)) } else { Err("expected START >= 0 and LENGTH > 0".into()) }
 }
 
 fn parse_attack_kind(s: &str) -> Result<AttackKind, String> {
@@ -296,7 +405,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Cmd::Attack { kind, seed, onset, path, out, load } => {
+        Cmd::Attack { kind, params, seed, onset, path, out, load } => {
             let r = input::load(&path, &load.options())?;
             let (samples, _) = replay::synchronize(&r, load.sync());
             let onset = match onset {
@@ -309,26 +418,43 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                         format!("this drive cannot host a {} attack (see `host-sim attack --help`)", kind.name()))))?
                 }
             };
-            let a = attack::apply(&r, kind, seed, onset);
+            let a = attack::apply_with(&r, kind, seed, onset, &params.params());
             host_sim::output::write_atomic(&out, |w| input::drive_csv::write(&a.replay, Some(onset), w))?;
             eprintln!("wrote {}: {} from t={onset:.2} s ({})", out.display(), kind.name(), a.spec.params);
             Ok(())
         }
-        Cmd::Eval { data, scenarios, out, seed, predictor } => {
+        Cmd::Nuisance { kind, seed, pos_delay_s, vel_delay_s, vel_1hz_lag_s, wheel_scale, gyro_bias_degps, gyro_scale, rate_switch_s, jitter_s, outage, path, out, load } => {
+            use gnss_data::nuisance::{self, Nuisance};
+            let r = input::load(&path, &load.options())?;
+            let (samples, _) = replay::synchronize(&r, load.sync());
+            let given = Nuisance { pos_delay_s, vel_delay_s, vel_1hz_lag_s, wheel_scale, wheel_quantised: wheel_scale.is_some(), gyro_bias_degps, gyro_scale, rate_switch_s, jitter_s, outages: outage };
+            let n = if given == Nuisance::default() {
+                let dur = samples.last().zip(samples.first()).map_or(0.0, |(a, b)| a.t - b.t);
+                Nuisance::draw(kind, seed, dur, 1.0 / detect::profile_of(&samples).nominal_dt_s as f64)
+            } else {
+                given
+            };
+            let t = nuisance::apply(&r, &n, seed);
+            host_sim::output::write_atomic(&out, |w| input::drive_csv::write(&t, None, w))?;
+            eprintln!("wrote {}: {}", out.display(), n.describe());
+            Ok(())
+        }
+        Cmd::Eval { data, protocol, nuisance_variants, scenarios, out, seed, predictor } => {
             let dir = data.unwrap_or_else(input::data_dir);
             let drives = load_drives(&dir.join("drives"))?;
-            run_eval(drives, "real", scenarios, seed, predictor, &out)
+            let protocol = if protocol == "in-sample" { eval::Protocol::InSample } else { eval::Protocol::LeaveOneSourceOut };
+            run_eval(drives, "real", &dir, protocol, nuisance_variants, scenarios, seed, predictor, &out)
         }
         Cmd::Demo { data, out, scenarios, seed } => {
             let dir = data.unwrap_or_else(input::data_dir);
             if dir.join("drives").is_dir() {
                 outln!("demo: using the REAL drives in {}", dir.display());
                 let drives = load_drives(&dir.join("drives"))?;
-                run_eval(drives, "real", scenarios, seed, detect::PredictorKind::Lstm, &out)
+                run_eval(drives, "real", &dir, eval::Protocol::LeaveOneSourceOut, 5, scenarios, seed, detect::PredictorKind::Lstm, &out)
             } else {
                 outln!("demo: {} not found: using two SIMULATED drives (10 Hz and 1 Hz receivers; seed {seed})", dir.display());
                 let drives = sim::demo_drives(seed).into_iter().map(|r| Drive::new(r, SyncConfig::default())).collect();
-                run_eval(drives, "simulated", scenarios, seed, detect::PredictorKind::Lstm, &out)
+                run_eval(drives, "simulated", &dir, eval::Protocol::LeaveOneSourceOut, 5, scenarios, seed, detect::PredictorKind::Lstm, &out)
             }
         }
         Cmd::Train { what, data, out, seed, hidden, epochs, patience, window } if what == "lstm" => {
@@ -422,14 +548,21 @@ fn load_drives(dir: &std::path::Path) -> anyhow::Result<Vec<Drive>> {
         .collect()
 }
 
-fn run_eval(drives: Vec<Drive>, data: &str, scenarios: usize, seed: u64, predictor: detect::PredictorKind, out: &std::path::Path) -> anyhow::Result<()> {
-    let o = eval::EvalOptions { scenarios, seed, predictor, ..Default::default() };
-    let total = drives.len() + eval::plan(&drives, &o).len();
+#[allow(clippy::too_many_arguments)]
+fn run_eval(drives: Vec<Drive>, data: &str, dir: &std::path::Path, protocol: eval::Protocol, nuisance_variants: usize, scenarios: usize, seed: u64, predictor: detect::PredictorKind, out: &std::path::Path) -> anyhow::Result<()> {
+    let o = eval::EvalOptions { scenarios, seed, predictor, protocol, ..Default::default() };
+    let nuisance_runs = drives.iter().filter(|d| d.has_wheel_speed()).count() * gnss_data::nuisance::NuisanceKind::ALL.len() * nuisance_variants;
+    let total = drives.len() + eval::plan(&drives, &o).len() + nuisance_runs;
     let bar = indicatif::ProgressBar::new(total as u64);
     bar.set_style(indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}").unwrap().progress_chars("=> "));
     bar.set_message("evaluating");
-    let r = eval::full(drives, &o, data, &|| bar.inc(1));
+    let r = eval::full(drives, &o, data, &dir.display().to_string(), nuisance_variants, &|| bar.inc(1));
     bar.finish_and_clear();
+    for (k, st) in &r.attacks {
+        if st.scenarios < st.requested {
+            outln!("note: {k}: {} scenarios of the {} asked for: the data can host {} ({} drives)", st.scenarios, st.requested, st.capacity, st.hosting_drives);
+        }
+    }
     let files = eval::report::write_all(&r, out)?;
     outln!("{}", eval::report::headline(&r));
     outln!("Table 3 (scenarios in which each strategy fired):\n{}", eval::report::table3(&r));

@@ -1,4 +1,6 @@
-//! The thresholds in `detector_core::profile` are measurements: re-measure and compare.
+//! The in-sample terms in `detector_core::profile` (strategy 1's kinematic error maxima, used as
+//! the compiled-in prior and for the QEMU run; `eval` fits them per fold) are measurements:
+//! re-measure and compare.
 
 use detector_core::profile::{LOGGER_1HZ, UBLOX_10HZ};
 use detector_core::sync::SyncConfig;
@@ -16,17 +18,6 @@ fn profile_error_terms_are_the_measured_maxima() {
         // Standstill GNSS speed noise stays under the profile's moving threshold.
         assert!((st[p.name].max_gnss_speed_standing_mps as f32) < p.gnss_speed_move_mps);
         assert!((st[p.name].max_pos_speed_standing_mps as f32) < p.pos_speed_move_mps);
-        // Beyond the paper: thresholds are 1.25 x the clean maxima (k is the p90 residual), with
-        // strategy 1 on either predictor.
-        let s = &st[p.name];
-        let near = |a: f32, b: f64| (a as f64 - b).abs() <= 0.01 * b.abs().max(1.0);
-        assert!(near(p.cusum_k_m, s.cusum_k_m), "{}: cusum k {} vs {}", p.name, p.cusum_k_m, s.cusum_k_m);
-        // Sums over a stretch: at least twice the receiver's error term.
-        let floor = 2.0 * p.gnss_error_m as f64;
-        assert!(near(p.cusum_h_m, (1.25 * s.cusum_max_stat_m).max(floor)), "{}: cusum h {} vs {}", p.name, p.cusum_h_m, s.cusum_max_stat_m);
-        assert!(near(p.window_h_m, (1.25 * s.window_max_m).max(floor)), "{}: window h {} vs {}", p.name, p.window_h_m, s.window_max_m);
-        assert!(near(p.speed_tol_mps, 1.25 * s.speed_excess_max_mps), "{}: speed {}", p.name, s.speed_excess_max_mps);
-        assert!(near(p.heading_tol_deg, 1.25 * s.heading_diff_max_deg), "{}: heading {}", p.name, s.heading_diff_max_deg);
     }
     assert_eq!(st["ublox-10hz"].drives.len(), 2);
     assert_eq!(st["logger-1hz"].drives.len(), 3);

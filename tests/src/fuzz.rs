@@ -209,17 +209,18 @@ pub fn detector(data: &[u8]) {
     for rec in data.chunks(24) {
         let (t, a, b) = (f64_at(rec, 0), f64_at(rec, 8), f64_at(rec, 16));
         let k = rec.first().copied().unwrap_or(0);
+        let k2 = rec.get(6).copied().unwrap_or(0);
         let mut signals = [Reading::Missing; Signal::COUNT];
         for (i, s) in signals.iter_mut().enumerate() {
             *s = reading(rec.get(i + 1).copied().unwrap_or(0), a * (i as f64 + 1.0));
         }
-        let s = Sample { t, dt_s: b as f32, pos: LatLon::new(a, b), shift_m: reading(k, b), gnss_speed: reading(k >> 2, a), gnss_course: reading(k >> 4, b), signals };
+        let s = Sample { t, dt_s: b as f32, pos: LatLon::new(a, b), shift_m: reading(k, b), gnss_speed: reading(k >> 2, a), gnss_course: reading(k >> 4, b), gnss_h_acc: reading(k >> 6, a), signals, dist_m: reading(k2, b), turn_deg: reading(k2 >> 2, a * b) };
         let v = d.step(&s);
         assert_eq!(v.ran.0 & v.degraded.0, 0);
         if k % 2 == 0 {
             sync.push_obs(Signal::ALL[k as usize % Signal::COUNT], t, a as f32, &mut |x| { d.step(x); });
         } else {
-            sync.push_fix(Fix { t, pos: LatLon::new(a, b), speed_mps: Some(b as f32), course_deg: None }, &mut |x| { d.step(x); });
+            sync.push_fix(Fix { t, pos: LatLon::new(a, b), speed_mps: Some(b as f32), course_deg: None, h_acc_m: None }, &mut |x| { d.step(x); });
         }
     }
     sync.flush(&mut |x| { d.step(x); });

@@ -149,6 +149,8 @@ pub struct Walk {
     spoof_rate: (f64, f64),
     stuck: Option<f32>,
     prev_fix: Option<(f64, LatLon)>,
+    /// The previous sample's signals (the integrals since it).
+    prev_signals: Option<[Reading; Signal::COUNT]>,
     last_obs_t: f64,
     bend_s: f64,
     stop_s: f64,
@@ -217,6 +219,7 @@ impl Walk {
             spoof_rate: (0.0, 0.0),
             stuck: None,
             prev_fix: None,
+            prev_signals: None,
             last_obs_t: f64::NAN,
             bend_s: 0.0,
             stop_s: 0.0,
@@ -370,7 +373,7 @@ impl Walk {
         }
         let speed = (self.v + r.noise(0.1)).max(0.0) as f32;
         let course = if self.v > 1.0 { wrap_360(self.heading + r.noise(1.0)) } else { r.range(0.0, 360.0) } as f32;
-        let mut fix = Fix { t: self.t, pos: reported, speed_mps: Some(speed), course_deg: Some(course) };
+        let mut fix = Fix { t: self.t, pos: reported, speed_mps: Some(speed), course_deg: Some(course), h_acc_m: None };
         if faults {
             match r.next_u64() % 8 {
                 0 => fix.pos = LatLon::new(f64::NAN, fix.pos.lon_deg),
@@ -399,6 +402,22 @@ impl Walk {
             Some((pt, pp)) if fix.t > pt && fix.pos.is_valid() => ((fix.t - pt) as f32, Reading::Valid(haversine_m(pp, fix.pos, R) as f32)),
             _ => (0.0, Reading::Missing),
         };
+        // The synchroniser's integrals since the previous epoch (trapezoids of the values).
+        let integral = |r: Reading, prev: Option<Reading>, rng: &mut Rng| -> Reading {
+            let v = match (r.get(), prev.and_then(Reading::get)) {
+                (Some(a), Some(b)) if dt_s > 0.0 => Reading::Valid(0.5 * (a + b) * dt_s),
+                (Some(_), _) => Reading::Stale,
+                _ => r,
+            };
+            if faults && rng.next_u64().is_multiple_of(8) {
+                Reading::Valid(f32::from_bits(rng.next_u64() as u32))
+            } else {
+                v
+            }
+        };
+        let dist_m = integral(signals[Signal::WheelSpeed.index()], self.prev_signals.map(|p| p[Signal::WheelSpeed.index()]), &mut self.rng);
+        let turn_deg = integral(signals[Signal::YawRate.index()], self.prev_signals.map(|p| p[Signal::YawRate.index()]), &mut self.rng);
+        self.prev_signals = Some(signals);
         let sample = Sample {
             t: fix.t,
             dt_s,
@@ -406,7 +425,10 @@ impl Walk {
             shift_m,
             gnss_speed: Reading::from_opt(fix.speed_mps),
             gnss_course: Reading::from_opt(fix.course_deg),
+            gnss_h_acc: Reading::Missing,
             signals,
+            dist_m,
+            turn_deg,
         };
         if fix.pos.is_valid() && self.prev_fix.is_none_or(|(pt, _)| fix.t > pt || fix.t < pt - 5.0) {
             self.prev_fix = Some((fix.t, fix.pos));

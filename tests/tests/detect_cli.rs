@@ -59,7 +59,10 @@ fn a_long_bend_before_a_turn_is_judged_without_panic() {
     assert_eq!(lines.len(), 900);
     assert_eq!(summary["alarm"], false, "{summary}");
     assert!(lines.iter().any(|l| l["turn"]["steering"] == "left"), "the turn was judged");
-    assert_eq!(status.last().unwrap()["state"], "running");
+    // 90 s from power-up without a standstill: the track check may still be learning the
+    // gyro's bias (no standstill to read it) and its frame; nothing is degraded or alarmed.
+    let last = status.last().unwrap()["state"].as_str().unwrap();
+    assert!(last == "running" || last == "learning", "{last}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -81,7 +84,7 @@ fn clean_drives_raise_no_alarm_and_say_when_degraded() {
             assert_eq!(l["alarm"], false, "{}: false alarm at {l}", p.display());
         }
         assert_eq!(s["alarm"], false, "{}", p.display());
-        for strat in ["location_shift", "motion", "turn", "residual_cusum", "speed", "heading"] {
+        for strat in ["location_shift", "motion", "turn", "track"] {
             assert_eq!(s["fired"][strat], 0, "{} {strat}", p.display());
         }
         let n = s["epochs"].as_u64().unwrap();

@@ -9,7 +9,7 @@ use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::geo::{destination, haversine_m, LatLon, EARTH_RADIUS_PAPER_M};
 use detector_core::profile::{LOGGER_1HZ, UBLOX_10HZ};
 use detector_core::sample::{Reading, Sample, Signal};
-use detector_core::strategy::consistency::{HeadingCheck, ResidualCusum, SpeedCheck};
+use detector_core::strategy::track::TrackCheck;
 use detector_core::strategy::location_shift::{KinematicPredictor, Predictor, ShiftPredictor};
 use detector_core::strategy::motion::Motion;
 use detector_core::strategy::turn::{TemplateSet, TurnStep, TurnStrategy, DEFAULT_TEMPLATES, MAX_SEGMENT};
@@ -49,7 +49,9 @@ fn still_detects<P: ShiftPredictor>(d: &mut Detector<'_, P>, t0: f64) -> Result<
             shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, rep, EARTH_RADIUS_PAPER_M) as f32)),
             gnss_speed: Reading::Valid(10.0),
             gnss_course: Reading::Missing,
+            gnss_h_acc: Reading::Missing,
             signals,
+            ..Default::default()
         };
         prev = Some(rep);
         out.push(d.step(&s));
@@ -70,7 +72,7 @@ fn run_walk<P: ShiftPredictor + Clone>(mut walk: Walk, predictor: P, ten_hz: boo
     let mut sync = Synchronizer::new(SyncConfig::default());
     let mut turn = TurnStrategy::new(cfg.turn, Some(set));
     let mut motion = Motion::new(cfg.motion);
-    let (mut cusum, mut speed, mut heading) = (ResidualCusum::default(), SpeedCheck::default(), HeadingCheck::default());
+    let mut track = TrackCheck::new(cfg.track);
     let mut kin = KinematicPredictor::default();
     let mut last_t = 0.0f64;
     let mut failure: Option<TestCaseError> = None;
@@ -99,12 +101,10 @@ fn run_walk<P: ShiftPredictor + Clone>(mut walk: Walk, predictor: P, ten_hz: boo
             prop_assert!(o.end_t - o.start_t <= MAX_SEGMENT as f64 * 0.2 + 1e-6 || o.steering == detector_core::strategy::turn::TurnClass::None, "{:?}", o);
         }
         let _ = motion.step(&s);
-        let c = cfg.consistency;
-        if let (Some(shift), Some(pred)) = (s.shift_m.get(), kin.predict(&s)) {
-            let _ = cusum.step(&c, shift, pred, s.dt_s, s.wheel_speed().get().unwrap_or(0.0));
+        let _ = kin.predict(&s);
+        if let Some(o) = track.step(&s) {
+            prop_assert!(o.windows.iter().flatten().all(|w| w.z.is_finite() && w.threshold_m.is_finite()), "{:?}", o);
         }
-        let _ = speed.step(&c, &s);
-        let _ = heading.step(&c, &s);
     }
     sync.flush(&mut |s: &Sample| {
         let _ = synced.step(s);

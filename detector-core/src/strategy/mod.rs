@@ -5,14 +5,14 @@
 //!   paper's LSTM with its f32 reference and integer kernels).
 //! - [`turn`]: strategy 2, steering turns (segmenter, k-NN with exact banded DTW) vs GNSS turns.
 //! - [`motion`]: strategy 3, standstill vs motion from the wheels and from GNSS.
-//! - [`consistency`]: beyond the paper, for stealthy spoofing: residual CUSUM, speed and
-//!   heading consistency.
+//! - [`track`]: beyond the paper, for stealthy spoofing: the GNSS track against the car's dead
+//!   reckoning over 10 s and 30 s, calibrated on the car itself.
 //!
 //! No strategy depends on another; [`crate::fusion`] combines them.
 
-pub mod consistency;
 pub mod location_shift;
 pub mod motion;
+pub mod track;
 pub mod turn;
 
 /// Identifies a strategy in verdicts and reports.
@@ -21,23 +21,12 @@ pub enum StrategyId {
     LocationShift = 0,
     Turn = 1,
     Motion = 2,
-    /// Beyond the paper: CUSUM on strategy 1's residual.
-    ResidualCusum = 3,
-    /// Beyond the paper: GNSS speed vs wheel speed.
-    Speed = 4,
-    /// Beyond the paper: GNSS course vs yaw rate.
-    Heading = 5,
+    /// Beyond the paper: the GNSS track against the car's dead reckoning.
+    Track = 3,
 }
 
 impl StrategyId {
-    pub const ALL: [StrategyId; 6] = [
-        StrategyId::LocationShift,
-        StrategyId::Turn,
-        StrategyId::Motion,
-        StrategyId::ResidualCusum,
-        StrategyId::Speed,
-        StrategyId::Heading,
-    ];
+    pub const ALL: [StrategyId; 4] = [StrategyId::LocationShift, StrategyId::Turn, StrategyId::Motion, StrategyId::Track];
     /// The paper's three strategies.
     pub const PAPER: [StrategyId; 3] = [StrategyId::LocationShift, StrategyId::Turn, StrategyId::Motion];
     /// The name used on the command line, in JSON and in reports.
@@ -46,9 +35,7 @@ impl StrategyId {
             StrategyId::LocationShift => "location_shift",
             StrategyId::Turn => "turn",
             StrategyId::Motion => "motion",
-            StrategyId::ResidualCusum => "residual_cusum",
-            StrategyId::Speed => "speed",
-            StrategyId::Heading => "heading",
+            StrategyId::Track => "track",
         }
     }
 }

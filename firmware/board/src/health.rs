@@ -529,10 +529,7 @@ mod tests {
             shift: None,
             motion: None,
             turn: None,
-            cusum_m: None,
-            residual_window_m: None,
-            speed_diff_mps: None,
-            heading_diff_deg: None,
+            track: None,
             learning: false,
             alarm,
             first_alarm: None,
@@ -647,9 +644,9 @@ mod tests {
         assert_eq!(o.merged, 1);
         // The transmitter's mailboxes are full: it comes back, merged with what came since.
         o.failed(f);
-        o.on_verdict(&verdict(13, Some(StrategyId::Heading), true));
+        o.on_verdict(&verdict(13, Some(StrategyId::Track), true));
         let f = o.next(1.2).unwrap();
-        assert_eq!((f.fired, f.epoch), (0b100101, 11));
+        assert_eq!((f.fired, f.epoch), (0b1101, 11));
         assert_eq!(o.retries, 1);
         o.sent(1.2);
         // Latched: repeated once a second, not more often.

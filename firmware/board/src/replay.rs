@@ -381,8 +381,8 @@ pub fn run<'t>(
     Ok(o)
 }
 
-/// The longest accepted delay from an attack's onset to the alarm, seconds. Strategy 3 and the
-/// heading check need a few seconds of evidence; strategy 1 fires at the onset epoch.
+/// The longest accepted delay from an attack's onset to the alarm, seconds. Strategies 2 and 3
+/// need a few seconds of evidence; strategy 1 fires at the onset epoch.
 pub const MAX_ALARM_DELAY_S: f64 = 10.0;
 
 /// One digest for all scenarios (FNV-1a 64 over their digests).

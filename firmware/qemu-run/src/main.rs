@@ -133,9 +133,9 @@ fn main() -> ! {
         all = false;
         hprintln!("qemu-run: the CAN queue could overflow during the longest call: FAIL");
     }
-    // The cost of the paper's strategies alone: the same scenarios without the consistency detectors.
+    // The cost of the paper's strategies alone: the same scenarios without the track check.
     let mut paper_cfg = cfg;
-    paper_cfg.consistency.enabled = false;
+    paper_cfg.track.enabled = false;
     epoch_costs(&input, paper_cfg, templates, &predictor, &mut clock, &mut costs);
     report("instructions per epoch (paper strategies only)", &mut costs);
     // Strategy 1's predictors alone: the same scenarios with the kinematic predictor, and the

@@ -111,6 +111,10 @@ fn speed(s: &Sample) -> Option<f32> {
 }
 
 /// Times where `kind` makes sense on this drive (synchronised clean samples), in order.
+/// The stealthy kinds start no earlier than this into a drive, seconds: the track check learns
+/// the car during its first 30 s of driving and says so (`learning`) instead of judging.
+pub const STEALTHY_FIRST_ONSET_S: f64 = 60.0;
+
 pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
     let moving = |s: &Sample| speed(s).is_some_and(|v| v > 3.0);
     let mut out = Vec::new();
@@ -126,8 +130,10 @@ pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
         | AttackKind::Direction
         | AttackKind::Replay
         | AttackKind::Jump => {
-            // Every 20 s of driving with at least 15 s of drive left.
-            let mut next = samples[0].t + 10.0;
+            // Every 20 s of driving with at least 15 s of drive left; the stealthy kinds, which
+            // only the track check can see, after its warm-up.
+            let first = if AttackKind::STEALTHY.contains(&kind) { STEALTHY_FIRST_ONSET_S } else { 10.0 };
+            let mut next = samples[0].t + first;
             for s in samples {
                 if s.t >= next && moving(s) && t_end - s.t > 15.0 {
                     out.push(s.t);
@@ -172,14 +178,42 @@ pub fn turn_starts(samples: &[Sample]) -> Vec<f64> {
     tracks::turn_events(samples, R).into_iter().map(|e| e.0).collect()
 }
 
-/// Applies `kind` at `onset_t` with parameters drawn from `seed`.
-pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Attacked {
-    apply_with(replay, kind, seed, onset_t, None)
+/// Parameters fixed instead of drawn from the seed (the others are drawn as always, so fixing
+/// one changes nothing else): one case reproduced from the command line, or a sweep.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct AttackParams {
+    /// `turn-by-turn`, `jump`: the offset, metres, and its bearing, degrees.
+    pub offset_m: Option<f64>,
+    pub bearing_deg: Option<f64>,
+    /// `stop`: the spoofed speed, m/s.
+    pub speed_mps: Option<f64>,
+    /// `slow-drift`: the rate, m/s, and whether across the road (else along it).
+    pub rate_mps: Option<f64>,
+    pub across: Option<bool>,
+    /// `small-biased`: the step per epoch, metres.
+    pub step_m: Option<f64>,
+    /// `direction`: the rotation rate, deg/s (+ = clockwise).
+    pub deg_per_s: Option<f64>,
+    /// `replay`: the delay, seconds.
+    pub delay_s: Option<f64>,
+    /// `wrong-turn` on a straight road: turn right (else left).
+    pub right: Option<bool>,
 }
 
-/// [`apply`], with the slow drift's rate set to `drift_mps` instead of drawn (the other
-/// parameters are drawn from `seed` as always).
-pub fn apply_with(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64, drift_mps: Option<f64>) -> Attacked {
+impl AttackParams {
+    /// Only the slow drift's rate fixed.
+    pub fn drift(rate_mps: f64) -> Self {
+        AttackParams { rate_mps: Some(rate_mps), ..Default::default() }
+    }
+}
+
+/// Applies `kind` at `onset_t` with parameters drawn from `seed`.
+pub fn apply(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64) -> Attacked {
+    apply_with(replay, kind, seed, onset_t, &AttackParams::default())
+}
+
+/// [`apply`], with the parameters `fixed` sets taken instead of drawn.
+pub fn apply_with(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64, fixed: &AttackParams) -> Attacked {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e55_5f61_7474_6163);
     let fixes: Vec<Fix> = replay.fixes().copied().collect();
     let k0 = fixes.iter().position(|f| f.t >= onset_t).unwrap_or(fixes.len());
@@ -191,8 +225,8 @@ pub fn apply_with(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64, dr
     match kind {
         AttackKind::TurnByTurn | AttackKind::Jump => {
             let (lo, hi) = if kind == AttackKind::Jump { (300.0, 1000.0) } else { (30.0, 300.0) };
-            let d: f64 = rng.random_range(lo..hi);
-            let b: f64 = rng.random_range(0.0..360.0);
+            let d: f64 = fixed.offset_m.unwrap_or(rng.random_range(lo..hi));
+            let b: f64 = fixed.bearing_deg.unwrap_or(rng.random_range(0.0..360.0));
             value = d;
             params = format!("offset {d:.0} m toward {b:.0} deg");
             for f in new.iter_mut().skip(k0) {
@@ -211,7 +245,7 @@ pub fn apply_with(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64, dr
             }
         }
         AttackKind::Stop => {
-            let v: f64 = rng.random_range(5.0..15.0);
+            let v: f64 = fixed.speed_mps.unwrap_or(rng.random_range(5.0..15.0));
             params = format!("moves on along the road at {v:.1} m/s");
             // The road ahead: the car's own later track, as a polyline with arc lengths.
             // Points under 2 m apart (standing jitter) are dropped so bearings mean something.
@@ -251,15 +285,17 @@ pub fn apply_with(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64, dr
                     }
                 }
             } else {
-                let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                let drawn = rng.random_bool(0.5);
+                let sign = if fixed.right.unwrap_or(drawn) { 1.0 } else { -1.0 };
                 params = format!("turns {} by 90 deg over 6 s where the car goes straight", if sign > 0.0 { "right" } else { "left" });
                 rotate_steps(&fixes, &mut new, k0, |t| sign * 90.0 * ((t - onset_t) / 6.0).clamp(0.0, 1.0));
             }
         }
         AttackKind::SlowDrift => {
             let drawn: f64 = rng.random_range(0.05..1.0);
-            let r = drift_mps.unwrap_or(drawn);
-            let across = rng.random_bool(0.5);
+            let r = fixed.rate_mps.unwrap_or(drawn);
+            let drawn_across = rng.random_bool(0.5);
+            let across = fixed.across.unwrap_or(drawn_across);
             let b = heading_at(&fixes, k0) + if across { 90.0 } else { 0.0 };
             value = r;
             params = format!("drift {r:.2} m/s {} the road", if across { "across" } else { "along" });
@@ -275,24 +311,28 @@ pub fn apply_with(replay: &Replay, kind: AttackKind, seed: u64, onset_t: f64, dr
             sorted.sort_by(f64::total_cmp);
             let dt = sorted.get(sorted.len() / 2).copied().unwrap_or(1.0);
             let p = detector_core::profile::for_rate(1.0 / dt);
-            let step = frac * (p.kinematic_max_error_m + p.gnss_error_m) as f64;
+            let step = fixed.step_m.unwrap_or(frac * (p.kinematic_max_error_m + p.gnss_error_m) as f64);
             let b = heading_at(&fixes, k0);
             value = step;
-            params = format!("{step:.2} m per epoch ({:.0} % of the {} threshold) along {b:.0} deg", frac * 100.0, p.name);
+            params = format!("{step:.2} m per epoch ({:.0} % of the {} threshold) along {b:.0} deg", step / (p.kinematic_max_error_m + p.gnss_error_m) as f64 * 100.0, p.name);
             for (n, (k, f)) in new.iter_mut().enumerate().skip(k0).enumerate() {
                 f.pos = destination(fixes[k].pos, b, step * (n + 1) as f64, R);
                 add_velocity(f, &fixes, k, b, step / dt);
             }
         }
         AttackKind::Direction => {
-            let w: f64 = rng.random_range(1.0..5.0);
-            let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            let drawn_w: f64 = rng.random_range(1.0..5.0);
+            let drawn_sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            let (w, sign) = match fixed.deg_per_s {
+                Some(x) => (x.abs(), if x < 0.0 { -1.0 } else { 1.0 }),
+                None => (drawn_w, drawn_sign),
+            };
             value = w;
             params = format!("steps rotated at {:.1} deg/s (up to 90 deg)", sign * w);
             rotate_steps(&fixes, &mut new, k0, |t| sign * (w * (t - onset_t)).clamp(0.0, 90.0));
         }
         AttackKind::Replay => {
-            let d: f64 = rng.random_range(1.0..10.0);
+            let d: f64 = fixed.delay_s.unwrap_or(rng.random_range(1.0..10.0));
             value = d;
             params = format!("true track delayed by {d:.1} s");
             for f in new.iter_mut().skip(k0) {

@@ -11,6 +11,7 @@
 //! [`results`] (what a run reports), [`stats`] (how verdicts become those numbers), [`report`]
 //! (report.json, report.md, figures).
 
+pub mod fold;
 pub mod plan;
 pub mod report;
 pub mod results;
@@ -19,5 +20,6 @@ pub mod stats;
 
 pub use plan::{plan, EvalOptions, DRIFT_SWEEP_MPS, PRE_ONSET_S, WINDOW_S};
 pub use results::*;
-pub use run::{drift_sweep, evaluate, full, run_scenario, run_scenario_with};
+pub use fold::{Fitted, Protocol};
+pub use run::{drift_sweep, evaluate, full, nuisance_suite, run_scenario, run_scenario_with, verdicts, Folds};
 pub use stats::{decisions, decisions_to_alarm, digest, predictor_stats, quantization, validation_runs};

@@ -1,6 +1,7 @@
 //! What an evaluation runs: its options, and the scenarios planned from the seed, spread
 //! round-robin over the drives that can host each attack kind.
 
+use super::fold::Protocol;
 use crate::dataset::Drive;
 use crate::detect::{self, PredictorKind};
 use detector_core::fusion::Config;
@@ -10,8 +11,9 @@ use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-/// Seconds of clean drive kept before each onset (detector warm-up) and judged after it.
-pub const PRE_ONSET_S: f64 = 60.0;
+/// Seconds of clean drive replayed before each onset (at most: from the drive's start), so the
+/// detector meets the attack in the state minutes of driving build, and judged after it.
+pub const PRE_ONSET_S: f64 = 600.0;
 pub const WINDOW_S: f64 = 120.0;
 
 #[derive(Clone, Copy)]
@@ -23,16 +25,23 @@ pub struct EvalOptions {
     pub tweak: Option<fn(&mut Config)>,
     /// Strategy 1's predictor.
     pub predictor: PredictorKind,
+    /// How the data-derived numbers are fitted.
+    pub protocol: Protocol,
 }
 
 impl Default for EvalOptions {
     fn default() -> Self {
-        Self { scenarios: 10, seed: 1, sync: SyncConfig::default(), tweak: None, predictor: PredictorKind::Lstm }
+        Self { scenarios: 10, seed: 1, sync: SyncConfig::default(), tweak: None, predictor: PredictorKind::Lstm, protocol: Protocol::LeaveOneSourceOut }
     }
 }
 
-pub fn config_for(d: &Drive, o: &EvalOptions) -> Config {
+/// The detector's configuration for drive `d`; `fold` sets the numbers fitted for its fold
+/// before the options' tweak, so a tweak always has the last word.
+pub fn config_for(d: &Drive, o: &EvalOptions, fold: Option<&dyn Fn(&mut Config)>) -> Config {
     let mut c = detect::config(d.profile, o.predictor);
+    if let Some(f) = fold {
+        f(&mut c);
+    }
     if let Some(f) = o.tweak {
         f(&mut c);
     }
@@ -75,3 +84,9 @@ pub fn plan(drives: &[Drive], o: &EvalOptions) -> Vec<(AttackKind, usize, f64, u
 /// Drift rates of the sweep, m/s: the range and beyond it, to find what is detected
 /// within 10 s.
 pub const DRIFT_SWEEP_MPS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 4.0, 8.0];
+
+/// How many scenarios of `kind` the data can host: every candidate onset of every drive with
+/// wheel speed.
+pub fn capacity(drives: &[Drive], kind: AttackKind) -> usize {
+    drives.iter().filter(|d| d.has_wheel_speed()).map(|d| attack::candidate_onsets(kind, &d.samples).len()).sum()
+}

@@ -95,12 +95,30 @@ pub struct KindStats {
     pub sources: Vec<String>,
     pub missed: Vec<String>,
     pub hosting_drives: usize,
+    /// Scenarios asked for, and how many the data can host (all candidate onsets).
+    pub requested: usize,
+    pub capacity: usize,
 }
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
     /// "real" or "simulated".
     pub data: String,
+    /// The data folder the run read.
+    pub data_dir: String,
+    /// How the numbers were fitted: `leave-one-source-out` (each source judged with numbers fitted
+    /// on the others) or `in-sample`.
+    pub protocol: super::fold::Protocol,
+    /// Per source, judged with the numbers fitted without it (leave-one-source-out).
+    pub cross_source: BTreeMap<String, CrossSource>,
+    /// The nuisance suite (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nuisance: Option<BTreeMap<&'static str, NuisanceStats>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nuisance_total: Option<NuisanceTotal>,
+    /// The slow drift's limits per receiver class and direction (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_limit: Option<BTreeMap<&'static str, BTreeMap<&'static str, DriftLimit>>>,
     pub clean: CleanStats,
     pub attacks: BTreeMap<&'static str, KindStats>,
     pub scenarios: Vec<Scenario>,
@@ -182,4 +200,84 @@ pub struct DriftSweepPoint {
     pub along_within_10s: usize,
     pub across_scenarios: usize,
     pub across_within_10s: usize,
+    /// The same within 30 s, and per receiver class (`10hz`, `1hz`).
+    pub along_within_30s: usize,
+    pub across_within_30s: usize,
+    pub by_class: BTreeMap<&'static str, SweepCounts>,
+}
+
+/// Slow drifts of one rate and receiver class: scenarios, and detected within 10 and 30 s.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SweepCounts {
+    pub along: usize,
+    pub along_within_10s: usize,
+    pub along_within_30s: usize,
+    pub across: usize,
+    pub across_within_10s: usize,
+    pub across_within_30s: usize,
+}
+
+/// One attack kind on one held-out source.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SourceAttack {
+    pub scenarios: usize,
+    pub detected: usize,
+    pub within_10s: usize,
+}
+
+/// One source judged with the numbers fitted without it.
+#[derive(Clone, Debug, Serialize)]
+pub struct CrossSource {
+    /// The sources the numbers were fitted on.
+    pub fitted_on: Vec<String>,
+    pub hours: f64,
+    /// Hours of drives with wheel speed (where the strategies run).
+    pub hours_judged: f64,
+    pub false_alarms: usize,
+    /// Strategy 1 on the LSTM is in-sample here (the LSTM was trained or validated on this
+    /// source); the other strategies are held out.
+    pub lstm_in_sample: bool,
+    /// The fold's fitted numbers.
+    pub kinematic_error_m: [f32; 2],
+    pub templates: usize,
+    pub attacks: BTreeMap<&'static str, SourceAttack>,
+}
+
+/// One slice of the nuisance suite.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct NuisanceStats {
+    pub runs: usize,
+    /// Hours at which the track check judged (warm, aligned, informative, driving): the hours
+    /// a false alarm of the beyond-the-paper check could have happened in.
+    pub hours: f64,
+    /// Hours at which any strategy ran.
+    pub hours_any: f64,
+    pub false_alarms: usize,
+    /// Epochs at which each strategy fired.
+    pub fired_epochs: BTreeMap<&'static str, usize>,
+    /// The runs that raised one: drive, seed, what was applied.
+    pub false_alarm_runs: Vec<String>,
+}
+
+/// The whole nuisance suite: false alarms, and the 95 % upper bound of their rate (Poisson).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct NuisanceTotal {
+    pub runs: usize,
+    /// As in [`NuisanceStats`]: hours the track check judged, and hours any strategy ran.
+    pub hours: f64,
+    pub hours_any: f64,
+    pub false_alarms: usize,
+    pub upper95_per_hour: f64,
+}
+
+/// The slow drift's limits in one receiver class and direction.
+#[derive(Clone, Debug, Serialize)]
+pub struct DriftLimit {
+    /// The smallest swept rate found in at least 95 % of the scenarios within 10 s, and 30 s.
+    pub rate_95_within_10s_mps: Option<f64>,
+    pub rate_95_within_30s_mps: Option<f64>,
+    /// The rate whose 10 s offset equals the track check's threshold on the clean drives of this
+    /// class (median over their judged epochs): what the sensors' measured noise allows.
+    pub bound_10s_mps: Option<f64>,
+    pub scenarios_per_rate: usize,
 }

@@ -3,20 +3,57 @@
 //! full evaluation the command line runs (both predictors, the paper's strategies alone, the
 //! int8 fidelity, strategy 2's classifier).
 
-use super::plan::{config_for, plan, EvalOptions, DRIFT_SWEEP_MPS, PRE_ONSET_S, WINDOW_S};
+use super::fold::{self, Fitted, LSTM_SOURCES};
+use super::plan::{capacity, config_for, plan, EvalOptions, DRIFT_SWEEP_MPS, PRE_ONSET_S, WINDOW_S};
 use super::results::*;
-use super::stats::{alarm_episodes, decisions, decisions_to_alarm, digest, kind_stats, predictor_stats, quantization};
+use super::stats::{alarm_episodes, decisions, decisions_to_alarm, digest, drift_limits, kind_stats, poisson_upper95, predictor_stats, quantization};
 use crate::dataset::Drive;
 use crate::detect::{self, PredictorKind};
-use detector_core::fusion::Verdict;
+use detector_core::fusion::{Config, Verdict};
+use detector_core::sample::Sample;
+use detector_core::strategy::turn::TemplateSet;
 use detector_core::strategy::StrategyId;
-use gnss_data::attack::{self, AttackKind};
+use gnss_data::attack::{self, AttackKind, AttackParams};
+use gnss_data::nuisance::{self, Nuisance, NuisanceKind};
 use gnss_data::replay;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 
-fn run_clean(d: &Drive, o: &EvalOptions) -> CleanDrive {
-    let v = detect::run_with(&d.samples, config_for(d, o), o.predictor);
+/// The fitted numbers each source is judged with.
+pub type Folds = BTreeMap<String, Fitted>;
+
+/// The detector's verdicts on samples of drive `d`, with the numbers of its source's fold.
+pub fn verdicts(d: &Drive, samples: &[Sample], o: &EvalOptions, folds: &Folds) -> Vec<Verdict> {
+    let fitted = folds.get(&d.source);
+    let apply = |c: &mut Config| {
+        if let Some(f) = fitted {
+            f.apply(c, d.profile.nominal_dt_s, o.predictor == PredictorKind::Kinematic);
+        }
+    };
+    let cfg = config_for(d, o, Some(&apply));
+    let set: TemplateSet<'_> = match fitted.and_then(|f| TemplateSet::parse(&f.templates).ok()) {
+        Some(s) => s,
+        None => detect::default_templates(),
+    };
+    detect::run_with_templates(samples, cfg, o.predictor, set)
+}
+
+/// Hours of epochs at which at least one strategy ran.
+fn hours_ran(v: &[Verdict]) -> f64 {
+    v.windows(2).filter(|w| !w[1].ran.is_empty()).map(|w| (w[1].t - w[0].t).clamp(0.0, 3.0)).sum::<f64>() / 3600.0
+}
+
+/// Hours of epochs at which the track check judged a window.
+fn hours_track_judged(v: &[Verdict]) -> f64 {
+    v.windows(2)
+        .filter(|w| w[1].track.is_some_and(|t| t.windows.iter().any(Option::is_some)))
+        .map(|w| (w[1].t - w[0].t).clamp(0.0, 3.0))
+        .sum::<f64>()
+        / 3600.0
+}
+
+fn run_clean(d: &Drive, o: &EvalOptions, folds: &Folds) -> CleanDrive {
+    let v = verdicts(d, &d.samples, o, folds);
     CleanDrive {
         drive: d.name.clone(),
         source: d.source.clone(),
@@ -32,17 +69,19 @@ fn run_clean(d: &Drive, o: &EvalOptions) -> CleanDrive {
     }
 }
 
-pub fn run_scenario(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usize, o: &EvalOptions) -> Scenario {
-    run_scenario_with(d, kind, onset, seed, idx, o, None)
+#[allow(clippy::too_many_arguments)]
+pub fn run_scenario(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usize, o: &EvalOptions, folds: &Folds) -> Scenario {
+    run_scenario_with(d, kind, onset, seed, idx, o, folds, &AttackParams::default())
 }
 
-/// [`run_scenario`] with the slow drift's rate forced (see [`attack::apply_with`]).
-pub fn run_scenario_with(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usize, o: &EvalOptions, drift_mps: Option<f64>) -> Scenario {
+/// [`run_scenario`] with some attack parameters fixed (see [`attack::apply_with`]).
+#[allow(clippy::too_many_arguments)]
+pub fn run_scenario_with(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx: usize, o: &EvalOptions, folds: &Folds, fixed: &AttackParams) -> Scenario {
     let mut window = d.replay.clone();
     window.events.retain(|e| e.t() >= onset - PRE_ONSET_S && e.t() <= onset + WINDOW_S);
-    let a = attack::apply_with(&window, kind, seed, onset, drift_mps);
+    let a = attack::apply_with(&window, kind, seed, onset, fixed);
     let (samples, _) = replay::synchronize(&a.replay, o.sync);
-    let v = detect::run_with(&samples, config_for(d, o), o.predictor);
+    let v = verdicts(d, &samples, o, folds);
     let first_attacked = v.iter().position(|x| x.t >= onset);
     let det = v.iter().position(|x| x.t >= onset && !x.fired.is_empty());
     let mut fired = detector_core::strategy::StrategySet::EMPTY;
@@ -77,30 +116,133 @@ pub fn run_scenario_with(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx
 }
 
 /// The slow-drift scenarios of the plan replayed at each rate of [`DRIFT_SWEEP_MPS`].
-pub fn drift_sweep(drives: &[Drive], o: &EvalOptions) -> Vec<DriftSweepPoint> {
+pub fn drift_sweep(drives: &[Drive], o: &EvalOptions, folds: &Folds) -> Vec<DriftSweepPoint> {
     let drifts: Vec<_> = plan(drives, o).into_iter().filter(|p| p.0 == AttackKind::SlowDrift).collect();
     DRIFT_SWEEP_MPS
         .iter()
         .map(|&rate| {
-            let runs: Vec<(bool, bool)> = drifts
+            // (along, class, detected within 10 s, within 30 s)
+            let runs: Vec<(bool, &'static str, bool, bool)> = drifts
                 .par_iter()
                 .enumerate()
                 .map(|(n, &(k, i, t, s))| {
-                    let sc = run_scenario_with(&drives[i], k, t, s, n, o, Some(rate));
-                    (sc.params.contains("along"), sc.ttd_s.is_some_and(|x| x <= 10.0))
+                    let sc = run_scenario_with(&drives[i], k, t, s, n, o, folds, &AttackParams::drift(rate));
+                    let class = if drives[i].profile.nominal_dt_s < 0.5 { "10hz" } else { "1hz" };
+                    (sc.params.contains("along"), class, sc.ttd_s.is_some_and(|x| x <= 10.0), sc.ttd_s.is_some_and(|x| x <= 30.0))
                 })
                 .collect();
-            let count = |along: bool| (runs.iter().filter(|r| r.0 == along).count(), runs.iter().filter(|r| r.0 == along && r.1).count());
-            let ((an, aw), (cn, cw)) = (count(true), count(false));
-            DriftSweepPoint { rate_mps: rate, along_scenarios: an, along_within_10s: aw, across_scenarios: cn, across_within_10s: cw }
+            let mut by_class: BTreeMap<&'static str, SweepCounts> = BTreeMap::new();
+            for &(along, class, w10, w30) in &runs {
+                let c = by_class.entry(class).or_default();
+                if along {
+                    (c.along, c.along_within_10s, c.along_within_30s) = (c.along + 1, c.along_within_10s + w10 as usize, c.along_within_30s + w30 as usize);
+                } else {
+                    (c.across, c.across_within_10s, c.across_within_30s) = (c.across + 1, c.across_within_10s + w10 as usize, c.across_within_30s + w30 as usize);
+                }
+            }
+            let sum = |f: fn(&SweepCounts) -> usize| by_class.values().map(f).sum::<usize>();
+            DriftSweepPoint {
+                rate_mps: rate,
+                along_scenarios: sum(|c| c.along),
+                along_within_10s: sum(|c| c.along_within_10s),
+                across_scenarios: sum(|c| c.across),
+                across_within_10s: sum(|c| c.across_within_10s),
+                along_within_30s: sum(|c| c.along_within_30s),
+                across_within_30s: sum(|c| c.across_within_30s),
+                by_class,
+            }
+        })
+        .collect()
+}
+
+/// One nuisance run: its kind, (hours the track check judged, hours any strategy ran), alarm
+/// episodes, what was applied, epochs each strategy fired.
+type NuisanceRun = (NuisanceKind, (f64, f64), usize, String, BTreeMap<&'static str, usize>);
+
+/// The nuisance suite: every drive with wheel speed, `variants` draws of every nuisance kind
+/// (seeded), judged with its source's fold. Returns per kind and in total.
+pub fn nuisance_suite(drives: &[Drive], o: &EvalOptions, folds: &Folds, variants: usize, progress: &(dyn Fn() + Sync)) -> (BTreeMap<&'static str, NuisanceStats>, NuisanceTotal) {
+    let jobs: Vec<(usize, NuisanceKind, usize)> = drives
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.has_wheel_speed())
+        .flat_map(|(i, _)| NuisanceKind::ALL.into_iter().flat_map(move |k| (0..variants).map(move |v| (i, k, v))))
+        .collect();
+    let runs: Vec<NuisanceRun> = jobs
+        .par_iter()
+        .map(|&(i, k, v)| {
+            let d = &drives[i];
+            let seed = o.seed.wrapping_mul(1_000_003).wrapping_add((i * 1000 + k as usize * 100 + v) as u64);
+            let hz = d.profile.nominal_dt_s.recip() as f64;
+            let n = Nuisance::draw(k, seed, d.hours() * 3600.0, hz);
+            let r = nuisance::apply(&d.replay, &n, seed);
+            let (samples, _) = replay::synchronize(&r, o.sync);
+            let v = verdicts(d, &samples, o, folds);
+            progress();
+            let mut fired = BTreeMap::new();
+            for x in &v {
+                for st in x.fired.iter() {
+                    *fired.entry(st.name()).or_insert(0) += 1;
+                }
+            }
+            (k, (hours_track_judged(&v), hours_ran(&v)), alarm_episodes(&v), format!("{} seed {seed}: {}", d.name, n.describe()), fired)
+        })
+        .collect();
+    let mut per: BTreeMap<&'static str, NuisanceStats> = BTreeMap::new();
+    let mut total = NuisanceTotal::default();
+    for (k, h, fa, what, fired) in runs {
+        let s = per.entry(k.name()).or_default();
+        for (st, n) in fired {
+            *s.fired_epochs.entry(st).or_insert(0) += n;
+        }
+        s.runs += 1;
+        s.hours += h.0;
+        s.hours_any += h.1;
+        s.false_alarms += fa;
+        if fa > 0 {
+            s.false_alarm_runs.push(what);
+        }
+        total.runs += 1;
+        total.hours += h.0;
+        total.hours_any += h.1;
+        total.false_alarms += fa;
+    }
+    total.upper95_per_hour = poisson_upper95(total.false_alarms, total.hours);
+    (per, total)
+}
+
+/// Each source judged with the numbers fitted without it: false alarms and detection.
+pub fn cross_source(drives: &[Drive], clean: &[CleanDrive], scenarios: &[Scenario], folds: &Folds) -> BTreeMap<String, CrossSource> {
+    fold::sources(drives)
+        .into_iter()
+        .filter_map(|src| {
+            let f = folds.get(&src)?;
+            let mut attacks: BTreeMap<&'static str, SourceAttack> = BTreeMap::new();
+            for sc in scenarios.iter().filter(|s| s.source == src) {
+                let a = attacks.entry(sc.kind.name()).or_default();
+                a.scenarios += 1;
+                a.detected += sc.detected as usize;
+                a.within_10s += sc.ttd_s.is_some_and(|t| t <= 10.0) as usize;
+            }
+            let mine = clean.iter().filter(|c| c.source == src);
+            Some((src.clone(), CrossSource {
+                fitted_on: f.fitted_on.clone(),
+                hours: mine.clone().map(|c| c.hours).sum(),
+                hours_judged: mine.clone().filter(|c| c.judged).map(|c| c.hours).sum(),
+                false_alarms: mine.map(|c| c.false_alarms).sum(),
+                lstm_in_sample: LSTM_SOURCES.contains(&src.as_str()),
+                kinematic_error_m: f.kinematic_error_m,
+                templates: f.templates_count,
+                attacks,
+            }))
         })
         .collect()
 }
 
 /// Runs the whole evaluation. `progress` is called once per finished unit of work.
-pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn Fn() + Sync)) -> Report {
+pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, data_dir: &str, folds: &Folds, progress: &(dyn Fn() + Sync)) -> Report {
     let clean: Vec<CleanDrive> = drives.par_iter().map(|d| {
-        let r = run_clean(d, o);
+        let r = run_clean(d, o, folds);
         progress();
         r
     }).collect();
@@ -112,7 +254,7 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
         (k, i, t, s, *n)
     }).collect();
     let scenarios: Vec<Scenario> = indexed.par_iter().map(|&(k, i, t, s, n)| {
-        let r = run_scenario(&drives[i], k, t, s, n, o);
+        let r = run_scenario(&drives[i], k, t, s, n, o, folds);
         progress();
         r
     }).collect();
@@ -133,9 +275,14 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
         false_alarms_per_hour: if hours > 0.0 { fa as f64 / hours } else { 0.0 },
         per_drive: clean,
     };
-    let attacks = kind_stats(&scenarios, drives);
+    let mut attacks = kind_stats(&scenarios, drives);
+    for (k, st) in attacks.iter_mut() {
+        st.requested = o.scenarios;
+        st.capacity = AttackKind::from_name(k).map_or(0, |k| capacity(drives, k));
+    }
+    let cross = cross_source(drives, &clean_stats.per_drive, &scenarios, folds);
     let profiles: BTreeMap<&str, serde_json::Value> = drives.iter().map(|d| {
-        let c = config_for(d, o);
+        let c = config_for(d, o, None);
         (d.profile.name, serde_json::json!({
             "s1_predictor": o.predictor.name(),
             "s1_predictor_error_m": c.shift.predictor_error_m,
@@ -148,6 +295,12 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
     }).collect();
     Report {
         data: data.to_string(),
+        data_dir: data_dir.to_string(),
+        protocol: o.protocol,
+        cross_source: cross,
+        nuisance: None,
+        nuisance_total: None,
+        drift_limit: None,
         clean: clean_stats,
         attacks,
         scenarios,
@@ -158,6 +311,7 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
             "window_s": WINDOW_S,
             "sync_max_gap_s": o.sync.max_gap_s,
             "profiles": profiles,
+            "folds": folds,
         }),
         turns: None,
         paper_strategies_only: None,
@@ -168,23 +322,46 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, progress: &(dyn F
     }
 }
 
-/// The evaluation the command line runs: [`evaluate`] with the chosen predictor, then the same
-/// drives and scenarios judged by the paper's strategies alone, with each predictor side by side
-/// and with the f32 LSTM (int8 fidelity), the slow drifts at fixed rates, and strategy 2's
-/// classifier on the held-out turns (this run's real drives and the held-out simulated ones).
-pub fn full(drives: Vec<Drive>, o: &EvalOptions, data: &str, progress: &(dyn Fn() + Sync)) -> Report {
-    let mut r = evaluate(&drives, o, data, progress);
-    let paper = EvalOptions { tweak: Some(|c| c.consistency.enabled = false), ..*o };
-    r.paper_strategies_only = Some(evaluate(&drives, &paper, data, &|| {}).attacks);
+/// The evaluation the command line runs: the folds fitted (leave-one-source-out unless asked
+/// otherwise), [`evaluate`] with the chosen predictor, then the same drives and scenarios judged
+/// by the paper's strategies alone, with each predictor side by side and with the f32 LSTM
+/// (int8 fidelity), the slow drifts at fixed rates and their limits, the nuisance suite
+/// (`nuisance_variants` draws per kind and drive; 0 skips it), and strategy 2's classifier on
+/// the held-out turns.
+pub fn full(drives: Vec<Drive>, o: &EvalOptions, data: &str, data_dir: &str, nuisance_variants: usize, progress: &(dyn Fn() + Sync)) -> Report {
+    let folds = fold::folds(&drives, o.protocol);
+    let mut r = evaluate(&drives, o, data, data_dir, &folds, progress);
+    let paper = EvalOptions { tweak: Some(|c| c.track.enabled = false), ..*o };
+    r.paper_strategies_only = Some(evaluate(&drives, &paper, data, data_dir, &folds, &|| {}).attacks);
     let runs: BTreeMap<PredictorKind, Report> = [PredictorKind::Kinematic, PredictorKind::Lstm, PredictorKind::LstmF32]
         .into_iter()
-        .map(|k| (k, if k == o.predictor { r.clone() } else { evaluate(&drives, &EvalOptions { predictor: k, ..*o }, data, &|| {}) }))
+        .map(|k| (k, if k == o.predictor { r.clone() } else { evaluate(&drives, &EvalOptions { predictor: k, ..*o }, data, data_dir, &folds, &|| {}) }))
         .collect();
     r.predictors = Some([PredictorKind::Kinematic, PredictorKind::Lstm].into_iter().map(|k| (k.name(), predictor_stats(k, &drives, &runs[&k]))).collect());
     r.quantization = Some(quantization(&drives, &runs[&PredictorKind::Lstm], &runs[&PredictorKind::LstmF32]));
-    r.drift_sweep = Some(drift_sweep(&drives, o));
+    let sweep = drift_sweep(&drives, o, &folds);
+    r.drift_limit = Some(drift_limits(&sweep, |class| track_bound_10s_mps(&drives, class, o, &folds)));
+    r.drift_sweep = Some(sweep);
+    if nuisance_variants > 0 {
+        let (per, total) = nuisance_suite(&drives, o, &folds, nuisance_variants, progress);
+        r.nuisance = Some(per);
+        r.nuisance_total = Some(total);
+    }
     let mut turn_drives = drives;
     turn_drives.extend(crate::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));
     r.turns = Some(crate::turns::evaluate_default(&turn_drives));
     r
+}
+
+/// The rate of a slow drift whose 10 s offset equals the track check's threshold, m/s: the
+/// median over the judged epochs of the clean drives of `class` (`10hz`, `1hz`); `None` where the
+/// check never ran.
+pub fn track_bound_10s_mps(drives: &[Drive], class: &str, o: &EvalOptions, folds: &Folds) -> Option<f64> {
+    let mut th: Vec<f64> = drives
+        .par_iter()
+        .filter(|d| d.has_wheel_speed() && (if d.profile.nominal_dt_s < 0.5 { "10hz" } else { "1hz" }) == class)
+        .flat_map(|d| verdicts(d, &d.samples, o, folds).into_iter().filter_map(|v| detect::track_threshold_m(&v)).map(|t| t as f64 / 10.0).collect::<Vec<_>>())
+        .collect();
+    th.sort_by(f64::total_cmp);
+    th.get(th.len() / 2).copied()
 }

@@ -182,7 +182,56 @@ pub fn kind_stats(scenarios: &[Scenario], drives: &[Drive]) -> BTreeMap<&'static
             sources,
             missed: sc.iter().filter(|s| !s.detected).map(|s| format!("{} ({}, t={:.1}, {})", s.id, s.drive, s.onset_t, s.params)).collect(),
             hosting_drives: drives.iter().filter(|d| d.has_wheel_speed() && !attack::candidate_onsets(kind, &d.samples).is_empty()).count(),
+            requested: 0,
+            capacity: 0,
         });
     }
     attacks
+}
+
+/// The 95 % upper confidence bound of a Poisson rate with `k` events in `hours` (exact:
+/// chi-square with 2(k + 1) degrees of freedom), per hour; infinite without hours.
+pub fn poisson_upper95(k: usize, hours: f64) -> f64 {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    if hours <= 0.0 {
+        return f64::INFINITY;
+    }
+    ChiSquared::new(2.0 * (k as f64 + 1.0)).map_or(f64::INFINITY, |c| c.inverse_cdf(0.95) / (2.0 * hours))
+}
+
+/// The smallest swept rate detected in at least 95 % of its scenarios within `within`.
+fn rate_95(sweep: &[DriftSweepPoint], class: &str, along: bool, within_30: bool) -> Option<f64> {
+    let mut pts: Vec<&DriftSweepPoint> = sweep.iter().collect();
+    pts.sort_by(|a, b| a.rate_mps.total_cmp(&b.rate_mps));
+    pts.into_iter().find_map(|p| {
+        let c = p.by_class.get(class)?;
+        let (n, hit) = match (along, within_30) {
+            (true, false) => (c.along, c.along_within_10s),
+            (true, true) => (c.along, c.along_within_30s),
+            (false, false) => (c.across, c.across_within_10s),
+            (false, true) => (c.across, c.across_within_30s),
+        };
+        (n > 0 && hit as f64 >= 0.95 * n as f64).then_some(p.rate_mps)
+    })
+}
+
+/// The slow drift's limits per receiver class (`10hz`, `1hz`) and direction, with the bound the
+/// track check's thresholds on the class's clean drives allow (`bound(class)`, m/s).
+pub fn drift_limits(sweep: &[DriftSweepPoint], bound: impl Fn(&str) -> Option<f64>) -> BTreeMap<&'static str, BTreeMap<&'static str, DriftLimit>> {
+    let mut out = BTreeMap::new();
+    for class in ["10hz", "1hz"] {
+        let bound = bound(class);
+        let mut m = BTreeMap::new();
+        for (dir, along) in [("along", true), ("across", false)] {
+            let n = sweep.first().and_then(|p| p.by_class.get(class)).map_or(0, |c| if along { c.along } else { c.across });
+            m.insert(dir, DriftLimit {
+                rate_95_within_10s_mps: rate_95(sweep, class, along, false),
+                rate_95_within_30s_mps: rate_95(sweep, class, along, true),
+                bound_10s_mps: bound,
+                scenarios_per_rate: n,
+            });
+        }
+        out.insert(class, m);
+    }
+    out
 }

@@ -4,10 +4,16 @@
 //! ```text
 //!   Idle { quiet }  --|steer| < settle-->  Idle { quiet: now }
 //!   Idle { quiet }  --|steer| > start--->  Segment { start: max(quiet, now - MAX_LEAD), or now }
-//!   Segment { start } --|steer| < settle, or MAX_SEGMENT ticks-->  Idle { quiet: now }
-//!                                          (Ended, when at least `min_ticks` long)
+//!   Segment { start } --|steer| < settle, or MAX_SEGMENT ticks-->
+//!                 Trailing { start, end: now, left: trail }   (when at least `min_ticks` long)
+//!                 Idle { quiet: now }                          (else)
+//!   Trailing { .., left } --a tick-->  Trailing { .., left - 1 }
+//!   Trailing { .., left: 0 }  -->  Ended, then Idle { quiet }, or Segment if the wheel is
+//!                                  turned again by then
 //!   any  --steering unknown (NaN), a stuck sensor-->  Idle { quiet: None }
 //! ```
+//! The trail (`trail_ticks`) lets a late GNSS course (a receiver or logger that lags the car's
+//! signals by a second or two) finish showing the turn before it is judged.
 //! `quiet` is the last tick with the wheel straight: a segment starts there, so the turn's
 //! approach is in it, but at most [`MAX_LEAD`] ticks back (the wheel can rest between `settle`
 //! and `start` for minutes). During the warm-up after a (re)start nothing starts; `quiet` is
@@ -49,6 +55,9 @@ pub enum Phase {
     Idle { quiet: Option<usize> },
     /// A segment from ring index `start`.
     Segment { start: usize },
+    /// A segment `start..=end` ended; `left` more ticks of GNSS course are awaited. `quiet` as
+    /// in `Idle`, for a segment that starts right after.
+    Trailing { start: usize, end: usize, left: usize, quiet: Option<usize> },
 }
 
 /// What one tick did.
@@ -60,8 +69,9 @@ pub enum SegEvent {
     NoSegment,
     /// In a segment (started or continuing), or one ended too short to judge.
     InSegment,
-    /// A segment of ring indices `start..=end` ended, long enough to judge.
-    Ended { start: usize, end: usize },
+    /// A segment of ring indices `start..=end` ended, long enough to judge; the GNSS course
+    /// is judged up to `gnss_end` (the trail after it).
+    Ended { start: usize, end: usize, gnss_end: usize },
 }
 
 /// The thresholds the segmenter needs (from `TurnConfig`).
@@ -71,6 +81,8 @@ pub struct SegmentRule {
     pub settle_deg: f32,
     pub min_ticks: usize,
     pub warmup_s: f32,
+    /// Ticks of GNSS course awaited after a segment ends.
+    pub trail_ticks: usize,
 }
 
 /// The tick ring and the state machine. See the module documentation.
@@ -145,6 +157,10 @@ impl Segmenter {
                     Some(start) => Phase::Segment { start },
                     None => Phase::Idle { quiet: None },
                 },
+                Phase::Trailing { start, end, left, quiet } => match (start.checked_sub(1), end.checked_sub(1)) {
+                    (Some(start), Some(end)) => Phase::Trailing { start, end, left, quiet: quiet.and_then(|i| i.checked_sub(1)) },
+                    _ => Phase::Idle { quiet: None },
+                },
             };
         }
         let _ = self.ring.push_back(tick);
@@ -178,12 +194,33 @@ impl Segmenter {
             Phase::Segment { start } => {
                 let len = (idx + 1).saturating_sub(start);
                 if a < rule.settle_deg || len >= MAX_SEGMENT {
-                    self.phase = Phase::Idle { quiet: Some(idx) };
-                    if len >= rule.min_ticks {
-                        return SegEvent::Ended { start, end: idx };
+                    let quiet = (a < rule.settle_deg).then_some(idx);
+                    self.phase = if len >= rule.min_ticks {
+                        Phase::Trailing { start, end: idx, left: rule.trail_ticks, quiet }
+                    } else {
+                        Phase::Idle { quiet }
+                    };
+                    if len >= rule.min_ticks && rule.trail_ticks == 0 {
+                        self.phase = Phase::Idle { quiet };
+                        return SegEvent::Ended { start, end: idx, gnss_end: idx };
                     }
                 }
                 SegEvent::InSegment
+            }
+            Phase::Trailing { start, end, left, quiet } => {
+                let quiet = if a < rule.settle_deg { Some(idx) } else { quiet };
+                if left > 1 {
+                    self.phase = Phase::Trailing { start, end, left: left - 1, quiet };
+                    return SegEvent::InSegment;
+                }
+                // The trail is complete: judge; the wheel may already be in the next turn.
+                self.phase = if a > rule.start_deg {
+                    let earliest = idx.saturating_sub(MAX_LEAD);
+                    Phase::Segment { start: quiet.map_or(idx, |q| q.max(earliest).max(end)) }
+                } else {
+                    Phase::Idle { quiet }
+                };
+                SegEvent::Ended { start, end, gnss_end: idx }
             }
         }
     }

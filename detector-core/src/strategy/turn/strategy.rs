@@ -4,7 +4,7 @@
 
 use super::dtw::resample;
 use super::knn::classify;
-use super::segmenter::{SegEvent, SegmentRule, Segmenter, Tick, MAX_SEGMENT, TICK_S};
+use super::segmenter::{SegEvent, SegmentRule, Segmenter, Tick, MAX_LEAD, MAX_SEGMENT, TICK_S};
 use crate::geo::{haversine_m, initial_bearing_deg, LatLon, EARTH_RADIUS_PAPER_M};
 use crate::sample::Sample;
 use crate::vehicle::Bicycle;
@@ -15,8 +15,9 @@ use crate::wire::templates::{TemplateSet, TurnClass, QUERY_LEN};
 /// in flash; [`TemplateSet::parse`] validates them in place.
 pub static DEFAULT_TEMPLATES: &[u8] = include_bytes!("../../../models/turn_templates.bin");
 
-/// The heading check also wants the wheel straight this long before its window, seconds.
-const HEADING_MARGIN_S: f32 = 2.0;
+/// The heading check also wants the wheel straight this long before its window, beyond the
+/// GNSS lag allowance, seconds (one epoch of a 1 Hz receiver).
+const HEADING_MARGIN_S: f32 = 1.0;
 
 /// What the strategy keeps of the previous sample, to interpolate the ticks up to the next.
 #[derive(Clone, Copy, Debug)]
@@ -61,6 +62,10 @@ pub struct TurnConfig {
     /// A measured steering angle bit-identical for this long while moving is a stuck sensor:
     /// strategy 2 is degraded until it changes, seconds.
     pub stuck_s: f32,
+    /// How late the GNSS course may be behind the car's signals, seconds: a segment's course
+    /// change is read this long past its end, and the heading check wants the wheel straight
+    /// this long (and an epoch) before its window. Receivers and loggers lag by 0.2 to 1.8 s.
+    pub gnss_lag_s: f32,
 }
 
 impl TurnConfig {
@@ -69,7 +74,13 @@ impl TurnConfig {
         Bicycle { wheelbase_m: self.wheelbase_m, steer_ratio: self.steer_ratio, min_speed_mps: self.min_speed_mps }
     }
     fn rule(&self) -> SegmentRule {
-        SegmentRule { start_deg: self.start_deg, settle_deg: self.settle_deg, min_ticks: self.min_ticks, warmup_s: self.warmup_s }
+        let trail_ticks = (self.gnss_lag_s.max(0.0) / TICK_S as f32 + 0.5) as usize;
+        SegmentRule { start_deg: self.start_deg, settle_deg: self.settle_deg, min_ticks: self.min_ticks, warmup_s: self.warmup_s, trail_ticks: trail_ticks.min(MAX_LEAD) }
+    }
+
+    /// The heading check's margin before its window, seconds.
+    fn heading_margin_s(&self) -> f32 {
+        self.gnss_lag_s.max(0.0) + HEADING_MARGIN_S
     }
 }
 
@@ -91,6 +102,7 @@ impl Default for TurnConfig {
             max_gap_s: 3.0,
             warmup_s: 10.0,
             stuck_s: 10.0,
+            gnss_lag_s: 2.5,
         }
     }
 }
@@ -278,12 +290,12 @@ impl<'a> TurnStrategy<'a> {
     fn on_tick(&mut self, tick: Tick, derived: bool) -> Option<TurnOutcome> {
         match self.seg.push(tick, &self.cfg.rule()) {
             SegEvent::NoSegment => self.gnss_only_check(derived),
-            SegEvent::Ended { start, end } => self.judge(start, end, derived),
+            SegEvent::Ended { start, end, gnss_end } => self.judge(start, end, gnss_end, derived),
             SegEvent::Nothing | SegEvent::InSegment => None,
         }
     }
 
-    fn judge(&mut self, st: usize, end: usize, derived: bool) -> Option<TurnOutcome> {
+    fn judge(&mut self, st: usize, end: usize, gnss_end: usize, derived: bool) -> Option<TurnOutcome> {
         // The segment's ticks, at most MAX_SEGMENT of them: the buffer bounds the copy, never an index.
         let mut raw = [0.0f32; MAX_SEGMENT];
         let n = (end + 1).saturating_sub(st).min(MAX_SEGMENT);
@@ -294,7 +306,7 @@ impl<'a> TurnStrategy<'a> {
         }
         let mut q = [0.0f32; QUERY_LEN];
         resample(raw.get(..filled).unwrap_or(&[]), &mut q);
-        let change = self.seg.course_change(st, end);
+        let change = self.seg.course_change(st, gnss_end);
         let first = self.seg.tick(st)?;
         let last = self.seg.tick(end)?;
         let (start_t, end_t) = (first.t, last.t);
@@ -349,7 +361,7 @@ impl<'a> TurnStrategy<'a> {
         let mut implied = 0.0f32;
         for (i, t) in self.seg.ticks().enumerate().rev() {
             let age = last.t - t.t;
-            if age > (c.heading_window_s + HEADING_MARGIN_S) as f64 {
+            if age > (c.heading_window_s + c.heading_margin_s()) as f64 {
                 break;
             }
             // The wheel straight over the window and a margin before it (GNSS headings lag a
@@ -367,7 +379,7 @@ impl<'a> TurnStrategy<'a> {
         }
         let first = self.seg.tick(from)?;
         let oldest = self.seg.ticks().next()?;
-        if ((last.t - oldest.t) as f32) < c.heading_window_s + HEADING_MARGIN_S - 0.5 {
+        if ((last.t - oldest.t) as f32) < c.heading_window_s + c.heading_margin_s() - 0.5 {
             return None; // not enough history yet
         }
         let change = self.seg.course_change(from, end);

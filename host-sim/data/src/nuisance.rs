@@ -1,0 +1,346 @@
+//! Nuisances: a clean real drive transformed the way a new installation differs from the ones
+//! the detector was built on. None of it is an attack; a detector must stay silent on all of it.
+//!
+//! | kind | what changes | drawn from |
+//! |---|---|---|
+//! | `delay` | GNSS position and/or speed and course reported late | 0.2 to 1.5 s |
+//! | `speed-course-1hz` | speed and course from a second, 1 Hz receiver that lags (position keeps its rate) | lag 0.5 to 1.8 s |
+//! | `wheel-speed` | wheel speed scaled (tyre radius, calibration) and quantised to 1 km/h at 2 Hz (OBD) | -5 to +5 % |
+//! | `gyro` | gyro bias and scale error | bias up to 0.5 deg/s, scale -5 to +5 % |
+//! | `rate-switch` | the fix rate switching between 10, 5 and 1 Hz (10 Hz drives) | every 20 to 90 s |
+//! | `jitter` | epoch timestamps jittered | +-50 ms |
+//! | `outage` | GNSS silent | 1 to 30 s, up to 4 times |
+//!
+//! `combined` draws each of them with probability one half. Everything is a pure function of
+//! the drive, the parameters and the seed; [`Nuisance`] says exactly what was applied, so one case
+//! can be reproduced from the command line (`host-sim nuisance ...`).
+
+use crate::input::{Event, Replay};
+use detector_core::geo::{angle_diff_deg, wrap_360, LatLon};
+use detector_core::sample::{Fix, Signal};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+/// The kinds of nuisance, each a named slice of the suite.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NuisanceKind {
+    Delay,
+    SpeedCourse1Hz,
+    WheelSpeed,
+    Gyro,
+    RateSwitch,
+    Jitter,
+    Outage,
+    /// Each of the above with probability one half.
+    Combined,
+}
+
+impl NuisanceKind {
+    pub const ALL: [NuisanceKind; 8] = [
+        NuisanceKind::Delay,
+        NuisanceKind::SpeedCourse1Hz,
+        NuisanceKind::WheelSpeed,
+        NuisanceKind::Gyro,
+        NuisanceKind::RateSwitch,
+        NuisanceKind::Jitter,
+        NuisanceKind::Outage,
+        NuisanceKind::Combined,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            NuisanceKind::Delay => "delay",
+            NuisanceKind::SpeedCourse1Hz => "speed-course-1hz",
+            NuisanceKind::WheelSpeed => "wheel-speed",
+            NuisanceKind::Gyro => "gyro",
+            NuisanceKind::RateSwitch => "rate-switch",
+            NuisanceKind::Jitter => "jitter",
+            NuisanceKind::Outage => "outage",
+            NuisanceKind::Combined => "combined",
+        }
+    }
+    pub fn from_name(s: &str) -> Option<NuisanceKind> {
+        NuisanceKind::ALL.into_iter().find(|k| k.name() == s)
+    }
+}
+
+/// What a nuisance does; `None` (or empty) leaves that part of the drive as it is.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Nuisance {
+    /// GNSS position reported this late, seconds.
+    pub pos_delay_s: Option<f64>,
+    /// GNSS speed and course reported this late, seconds.
+    pub vel_delay_s: Option<f64>,
+    /// Speed and course from a second receiver at 1 Hz, lagging by this much, seconds.
+    pub vel_1hz_lag_s: Option<f64>,
+    /// Wheel speed times this.
+    pub wheel_scale: Option<f64>,
+    /// Wheel speed resampled at 2 Hz and rounded to 1 km/h.
+    pub wheel_quantised: bool,
+    /// Gyro bias, deg/s, and scale.
+    pub gyro_bias_degps: Option<f64>,
+    pub gyro_scale: Option<f64>,
+    /// The fix rate switches between 10, 5 and 1 Hz every this many seconds.
+    pub rate_switch_s: Option<f64>,
+    /// Fix timestamps moved by up to +- this, seconds.
+    pub jitter_s: Option<f64>,
+    /// GNSS outages: (start, length), seconds after the drive's first event.
+    pub outages: Vec<(f64, f64)>,
+}
+
+impl Nuisance {
+    /// A nuisance of `kind` with parameters drawn from `seed` for a drive of `duration_s`
+    /// whose receiver runs at `gnss_hz`.
+    pub fn draw(kind: NuisanceKind, seed: u64, duration_s: f64, gnss_hz: f64) -> Nuisance {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e75_6973_616e_6365);
+        let mut n = Nuisance::default();
+        let pick = |k: NuisanceKind, rng: &mut ChaCha8Rng| kind == k || (kind == NuisanceKind::Combined && rng.random_bool(0.5));
+        if pick(NuisanceKind::Delay, &mut rng) {
+            // Position, speed and course, or only one of them, late.
+            match rng.random_range(0..3) {
+                0 => n.pos_delay_s = Some(rng.random_range(0.2..1.5)),
+                1 => n.vel_delay_s = Some(rng.random_range(0.2..1.5)),
+                _ => {
+                    let d = rng.random_range(0.2..1.5);
+                    (n.pos_delay_s, n.vel_delay_s) = (Some(d), Some(d));
+                }
+            }
+        }
+        if pick(NuisanceKind::SpeedCourse1Hz, &mut rng) {
+            n.vel_1hz_lag_s = Some(rng.random_range(0.5..1.8));
+        }
+        if pick(NuisanceKind::WheelSpeed, &mut rng) {
+            n.wheel_scale = Some(rng.random_range(0.95..1.05));
+            n.wheel_quantised = true;
+        }
+        if pick(NuisanceKind::Gyro, &mut rng) {
+            n.gyro_bias_degps = Some(rng.random_range(-0.5..0.5));
+            n.gyro_scale = Some(rng.random_range(0.95..1.05));
+        }
+        if pick(NuisanceKind::RateSwitch, &mut rng) && gnss_hz >= 5.0 {
+            n.rate_switch_s = Some(rng.random_range(20.0..90.0));
+        }
+        if pick(NuisanceKind::Jitter, &mut rng) {
+            n.jitter_s = Some(0.05);
+        }
+        if pick(NuisanceKind::Outage, &mut rng) && duration_s > 40.0 {
+            for _ in 0..rng.random_range(1..=4) {
+                let len = rng.random_range(1.0..30.0f64).min(duration_s / 4.0);
+                n.outages.push((rng.random_range(5.0..(duration_s - len).max(6.0)), len));
+            }
+            n.outages.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        n
+    }
+
+    /// One line saying what is applied.
+    pub fn describe(&self) -> String {
+        let mut p = Vec::new();
+        if let Some(d) = self.pos_delay_s {
+            p.push(format!("position {d:.2} s late"));
+        }
+        if let Some(d) = self.vel_delay_s {
+            p.push(format!("speed and course {d:.2} s late"));
+        }
+        if let Some(d) = self.vel_1hz_lag_s {
+            p.push(format!("speed and course from a 1 Hz receiver {d:.2} s late"));
+        }
+        if let Some(s) = self.wheel_scale {
+            p.push(format!("wheel speed x{s:.3}{}", if self.wheel_quantised { ", 1 km/h at 2 Hz" } else { "" }));
+        }
+        if self.gyro_bias_degps.is_some() || self.gyro_scale.is_some() {
+            p.push(format!("gyro bias {:+.2} deg/s scale x{:.3}", self.gyro_bias_degps.unwrap_or(0.0), self.gyro_scale.unwrap_or(1.0)));
+        }
+        if let Some(s) = self.rate_switch_s {
+            p.push(format!("fix rate switching among 10/5/1 Hz every {s:.0} s"));
+        }
+        if let Some(j) = self.jitter_s {
+            p.push(format!("timestamps +-{:.0} ms", j * 1000.0));
+        }
+        for (a, l) in &self.outages {
+            p.push(format!("outage {l:.1} s at {a:.0} s"));
+        }
+        if p.is_empty() { "nothing".into() } else { p.join("; ") }
+    }
+}
+
+/// The receiver's track, interpolated at any time (positions linearly, courses by the shorter way).
+struct Track<'a> {
+    fixes: &'a [Fix],
+}
+
+impl Track<'_> {
+    fn around(&self, t: f64) -> (usize, usize, f64) {
+        let j = self.fixes.partition_point(|f| f.t <= t);
+        let (a, b) = (j.saturating_sub(1), j.min(self.fixes.len() - 1));
+        let (fa, fb) = (self.fixes[a], self.fixes[b]);
+        let w = if fb.t > fa.t { ((t - fa.t) / (fb.t - fa.t)).clamp(0.0, 1.0) } else { 0.0 };
+        (a, b, w)
+    }
+    fn pos(&self, t: f64) -> LatLon {
+        let (a, b, w) = self.around(t);
+        let (pa, pb) = (self.fixes[a].pos, self.fixes[b].pos);
+        LatLon::new(pa.lat_deg + (pb.lat_deg - pa.lat_deg) * w, pa.lon_deg + (pb.lon_deg - pa.lon_deg) * w)
+    }
+    fn vel(&self, t: f64) -> (Option<f32>, Option<f32>) {
+        let (a, b, w) = self.around(t);
+        let (fa, fb) = (self.fixes[a], self.fixes[b]);
+        let speed = match (fa.speed_mps, fb.speed_mps) {
+            (Some(x), Some(y)) => Some(x + (y - x) * w as f32),
+            (x, y) => x.or(y),
+        };
+        let course = match (fa.course_deg, fb.course_deg) {
+            (Some(x), Some(y)) => Some(wrap_360(x as f64 + angle_diff_deg(x as f64, y as f64) * w) as f32),
+            (x, y) => x.or(y),
+        };
+        (speed, course)
+    }
+}
+
+/// The drive with the nuisance applied (`seed` draws the rate segments and the jitter).
+pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0061_7070_6c79);
+    let fixes: Vec<Fix> = r.fixes().copied().collect();
+    let t0 = r.events.first().map_or(0.0, |e| e.t());
+    let mut events: Vec<Event> = Vec::with_capacity(r.events.len());
+    if !fixes.is_empty() {
+        let track = Track { fixes: &fixes };
+        let mut rate_until = f64::NEG_INFINITY;
+        let mut period = 0.0f64;
+        let mut last_kept = f64::NEG_INFINITY;
+        let mut last_t = f64::NEG_INFINITY;
+        for f in &fixes {
+            if n.outages.iter().any(|&(a, l)| (t0 + a..t0 + a + l).contains(&f.t)) {
+                continue;
+            }
+            if let Some(s) = n.rate_switch_s {
+                if f.t >= rate_until {
+                    period = [0.1, 0.2, 1.0][rng.random_range(0..3)];
+                    rate_until = f.t + s;
+                }
+                if f.t < last_kept + period - 0.02 {
+                    continue;
+                }
+            }
+            // A receiver that reports late has nothing to report before its first late epoch
+            // (the track is not extrapolated back past the drive's first fix).
+            let first = fixes[0].t;
+            let late = n.pos_delay_s.into_iter().chain(n.vel_delay_s).chain(n.vel_1hz_lag_s.map(|l| l + 1.0)).fold(0.0f64, f64::max);
+            if f.t - late < first {
+                continue;
+            }
+            last_kept = f.t;
+            let mut g = *f;
+            if let Some(d) = n.pos_delay_s {
+                g.pos = track.pos(f.t - d);
+            }
+            if let Some(d) = n.vel_delay_s {
+                (g.speed_mps, g.course_deg) = track.vel(f.t - d);
+            }
+            if let Some(lag) = n.vel_1hz_lag_s {
+                // The second receiver's latest epoch (whole seconds of the drive) reports the
+                // velocity of `lag` before it.
+                let k = ((f.t - t0).floor()).max(0.0) + t0;
+                (g.speed_mps, g.course_deg) = track.vel(k - lag);
+            }
+            if let Some(j) = n.jitter_s {
+                g.t = (f.t + rng.random_range(-j..j)).max(last_t + 1e-3);
+            }
+            last_t = g.t;
+            events.push(Event::Fix(g));
+        }
+    }
+    // Vehicle signals.
+    let wheel: Vec<(f64, f32)> = r.events.iter().filter_map(|e| match *e {
+        Event::Obs { sig: Signal::WheelSpeed, t, v } => Some((t, v)),
+        _ => None,
+    }).collect();
+    for e in &r.events {
+        match *e {
+            Event::Fix(_) => {}
+            Event::Obs { sig: Signal::WheelSpeed, .. } if n.wheel_quantised => {}
+            Event::Obs { sig: Signal::WheelSpeed, t, v } => events.push(Event::Obs { sig: Signal::WheelSpeed, t, v: v * n.wheel_scale.unwrap_or(1.0) as f32 }),
+            Event::Obs { sig: Signal::YawRate, t, v } => events.push(Event::Obs {
+                sig: Signal::YawRate,
+                t,
+                v: v * n.gyro_scale.unwrap_or(1.0) as f32 + n.gyro_bias_degps.unwrap_or(0.0) as f32,
+            }),
+            o => events.push(o),
+        }
+    }
+    if n.wheel_quantised && wheel.len() >= 2 {
+        // An OBD speed: sampled at 2 Hz where the wheel speed was seen within 1 s, scaled,
+        // rounded to whole km/h.
+        let step = 1.0 / 3.6;
+        let (a, b) = (wheel[0].0, wheel[wheel.len() - 1].0);
+        let mut t = a;
+        while t <= b {
+            let j = wheel.partition_point(|w| w.0 <= t);
+            let (pa, pb) = (wheel[j.saturating_sub(1)], wheel[j.min(wheel.len() - 1)]);
+            if t - pa.0 <= 1.0 && pb.0 - t <= 1.0 {
+                let w = if pb.0 > pa.0 { ((t - pa.0) / (pb.0 - pa.0)) as f32 } else { 0.0 };
+                let v = (pa.1 + (pb.1 - pa.1) * w) * n.wheel_scale.unwrap_or(1.0) as f32;
+                events.push(Event::Obs { sig: Signal::WheelSpeed, t, v: (v / step).round() * step });
+            }
+            t += 0.5;
+        }
+    }
+    Replay::new(&r.path, r.format, events, r.skipped_rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::Format;
+
+    fn drive() -> Replay {
+        let mut ev = Vec::new();
+        for k in 0..600 {
+            let t = k as f64 * 0.1;
+            ev.push(Event::Fix(Fix { t, pos: LatLon::new(48.0 + t * 1e-4, 11.0), speed_mps: Some(11.1), course_deg: Some(0.0), h_acc_m: None }));
+            ev.push(Event::Obs { sig: Signal::WheelSpeed, t: t + 0.05, v: 11.0 });
+            ev.push(Event::Obs { sig: Signal::YawRate, t: t + 0.05, v: 0.0 });
+        }
+        Replay::new(std::path::Path::new("x.csv"), Format::DriveCsv, ev, 0)
+    }
+
+    #[test]
+    fn each_kind_changes_what_it_says_and_nothing_else() {
+        let r = drive();
+        let fixes = |r: &Replay| r.fixes().copied().collect::<Vec<_>>();
+        // Position 1 s late: 11 m behind (1e-4 deg lat per s), times unchanged; the first
+        // second has no late fix to report.
+        let d = apply(&r, &Nuisance { pos_delay_s: Some(1.0), ..Default::default() }, 1);
+        let (a, b) = (fixes(&r), fixes(&d));
+        assert_eq!(a.len(), b.len() + 10);
+        assert!((b[290].pos.lat_deg - a[290].pos.lat_deg).abs() < 1e-9 && b[290].t == a[300].t);
+        assert_eq!(b[0].t, a[10].t);
+        // Outage 10 s: 100 fixes fewer.
+        let o = apply(&r, &Nuisance { outages: vec![(20.0, 10.0)], ..Default::default() }, 1);
+        assert_eq!(fixes(&o).len(), 500);
+        // Rate switching never keeps fixes closer than the period.
+        let s = apply(&r, &Nuisance { rate_switch_s: Some(20.0), ..Default::default() }, 3);
+        assert!(fixes(&s).len() < 600 && fixes(&s).windows(2).all(|w| w[1].t - w[0].t > 0.07));
+        // Wheel speed at 2 Hz in whole km/h, scaled.
+        let w = apply(&r, &Nuisance { wheel_scale: Some(1.05), wheel_quantised: true, ..Default::default() }, 1);
+        let ws: Vec<f32> = w.events.iter().filter_map(|e| match e { Event::Obs { sig: Signal::WheelSpeed, v, .. } => Some(*v), _ => None }).collect();
+        assert!(ws.len() > 100 && ws.len() < 130);
+        assert!(ws.iter().all(|v| ((v * 3.6) - (v * 3.6).round()).abs() < 1e-3 && (v * 3.6 - 42.0).abs() < 1e-3));
+        // Gyro bias.
+        let g = apply(&r, &Nuisance { gyro_bias_degps: Some(0.5), gyro_scale: Some(1.05), ..Default::default() }, 1);
+        assert!(g.events.iter().all(|e| !matches!(e, Event::Obs { sig: Signal::YawRate, v, .. } if (*v - 0.5).abs() > 1e-6)));
+        // Nothing is nothing.
+        assert_eq!(apply(&r, &Nuisance::default(), 1).events, r.events);
+    }
+
+    #[test]
+    fn draws_are_reproducible_and_named() {
+        for k in NuisanceKind::ALL {
+            assert_eq!(NuisanceKind::from_name(k.name()), Some(k));
+            assert_eq!(Nuisance::draw(k, 7, 600.0, 10.0), Nuisance::draw(k, 7, 600.0, 10.0));
+        }
+        assert!(!Nuisance::draw(NuisanceKind::Outage, 1, 600.0, 1.0).outages.is_empty());
+        assert!(Nuisance::draw(NuisanceKind::RateSwitch, 1, 600.0, 1.0).rate_switch_s.is_none(), "1 Hz drives cannot switch up");
+    }
+}
