@@ -53,7 +53,7 @@ fn killing_eval_while_it_writes_leaves_only_complete_files() {
     for (k, delay_ms) in [0u64, 100, 300].into_iter().enumerate() {
         let out = base.join(format!("run{k}"));
         let mut child = std::process::Command::new(bin)
-            .args(["eval", "--data", d.to_str().unwrap(), "--scenarios", "10", "--out", out.to_str().unwrap()])
+            .args(["eval", "--data", d.to_str().unwrap(), "--scenarios", "10", "--nuisance-variants", "1", "--out", out.to_str().unwrap()])
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null())
             .spawn()
@@ -78,7 +78,7 @@ fn killing_eval_while_it_writes_leaves_only_complete_files() {
     // A complete run over a killed one's folder: everything there, nothing else.
     let out = base.join("run2");
     let st = std::process::Command::new(bin)
-        .args(["eval", "--data", d.to_str().unwrap(), "--scenarios", "10", "--out", out.to_str().unwrap()])
+        .args(["eval", "--data", d.to_str().unwrap(), "--scenarios", "10", "--nuisance-variants", "1", "--out", out.to_str().unwrap()])
         .stdout(std::process::Stdio::null())
         .status()
         .unwrap();
