@@ -49,6 +49,13 @@ echo "$qemu_out"
 if [ "${CI:-}" = true ] && ! echo "$qemu_out" | grep -q '^input: REAL drive'; then
   echo "CI=true: the QEMU run must replay the real comma2k19 segment, not the simulated fallback" >&2; exit 1
 fi
+# The Cortex-M4 cost targets (deterministic instruction counts under -icount, so a hard check).
+lstm_step=$(echo "$qemu_out" | sed -n 's/^instructions per LSTM step.* median \([0-9]*\) .*/\1/p')
+epoch=$(echo "$qemu_out" | sed -n 's/^instructions per epoch: .* median \([0-9]*\) .*/\1/p')
+if [ -z "$lstm_step" ] || [ -z "$epoch" ] || [ "$lstm_step" -gt 210000 ] || [ "$epoch" -gt 300000 ]; then
+  echo "Cortex-M4 cost targets: LSTM step '$lstm_step' (<= 210000), epoch median '$epoch' (<= 300000)" >&2; exit 1
+fi
+echo "Cortex-M4 cost: LSTM step $lstm_step instructions (<= 210000), epoch median $epoch (<= 300000)"
 host_out=$(cargo run -q --release -p host-sim -- digest)
 echo "$host_out" | tail -1
 q=$(echo "$qemu_out" | grep '^verdict digest:')

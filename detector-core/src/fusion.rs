@@ -11,6 +11,7 @@
 //! until [`Detector::clear_alarm`]. Per-epoch `fired` sets are kept separately, so which
 //! strategies detected which attack (the paper's Table 3) is derived from verdicts directly.
 
+use crate::stage::{NoStopwatch, Stage, Stopwatch};
 use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 use crate::strategy::track::{TrackCheck, TrackConfig, TrackOutcome};
@@ -253,6 +254,11 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
     }
 
     pub fn step(&mut self, s: &Sample) -> Verdict {
+        self.step_timed(s, &mut NoStopwatch)
+    }
+
+    /// [`Detector::step`], telling `w` where each stage ends (the QEMU run's breakdown).
+    pub fn step_timed<W: Stopwatch + ?Sized>(&mut self, s: &Sample, w: &mut W) -> Verdict {
         let epoch = self.epoch;
         self.epoch = self.epoch.wrapping_add(1);
         let mut v = Verdict {
@@ -309,6 +315,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
 
         // Strategy 1. The predictor sees every sample so its state stays current.
         let predicted = self.predictor.predict(s);
+        w.lap(Stage::Predictor);
         let mut shift_cfg = self.cfg.shift;
         let fallback = self.predictor.used_fallback();
         if fallback {
@@ -340,6 +347,8 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             }
         }
 
+        w.lap(Stage::ShiftJudge);
+
         // Strategy 3.
         match self.motion.step(s) {
             Some(o) => {
@@ -358,6 +367,8 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                 v.reasons.insert(Reason::NoMotionInputs);
             }
         }
+
+        w.lap(Stage::Motion);
 
         // Strategy 2.
         if let Some(ts) = self.turn.as_mut() {
@@ -378,6 +389,8 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                 }
             }
         }
+
+        w.lap(if v.turn.is_some() { Stage::TurnQuery } else { Stage::Turn });
 
         // Beyond the paper: the track check.
         if track_on {
@@ -407,12 +420,15 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             }
         }
 
+        w.lap(Stage::Track);
+
         v.learning = !self.settled || v.track.is_some_and(|t| t.learning);
         if !v.fired.is_empty() && self.first_alarm.is_none() {
             self.first_alarm = Some(FirstAlarm { epoch, t: s.t });
         }
         v.first_alarm = self.first_alarm;
         v.alarm = self.first_alarm.is_some();
+        w.lap(Stage::Fusion);
         v
     }
 }

@@ -6,6 +6,7 @@
 //!
 //! The modules follow the data path, each depending only on those above it in this list:
 //!
+//! 0. [`stage`]: cost accounting by stage (a stopwatch interface; nothing by default).
 //! 1. [`wire`]: the binary formats read from flash (turn templates, LSTM model), one
 //!    little-endian reader, CRC-32.
 //! 2. [`geo`]: geodesy on WGS84 coordinates (haversine distance, initial bearing).
@@ -22,6 +23,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod stage;
 pub mod wire;
 pub mod geo;
 pub mod sample;

@@ -50,6 +50,12 @@ pub enum Signal {
 }
 
 impl Signal {
+    /// Whether the synchroniser integrates this signal between epochs (wheel speed into
+    /// [`Sample::dist_m`], yaw rate into [`Sample::turn_deg`]).
+    pub fn integrated(self) -> bool {
+        matches!(self, Signal::WheelSpeed | Signal::YawRate)
+    }
+
     pub const COUNT: usize = 5;
     pub const ALL: [Signal; Signal::COUNT] =
         [Signal::WheelSpeed, Signal::Steering, Signal::Pedal, Signal::YawRate, Signal::LongAccel];

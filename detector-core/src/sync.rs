@@ -26,7 +26,7 @@
 //! ([`Sample::dist_m`], [`Sample::turn_deg`]): exact whatever the epoch rate, and across a GNSS
 //! outage too as long as the signal itself has no gap over `max_gap_s`.
 
-use crate::geo::{haversine_m, EARTH_RADIUS_PAPER_M};
+use crate::geo::{haversine_f32_m, EARTH_RADIUS_PAPER_M};
 use crate::sample::{Fix, Reading, Sample, Signal};
 use heapless::Deque;
 
@@ -94,6 +94,10 @@ enum Slot {
 struct Pending {
     fix: Fix,
     slots: [Slot; Signal::COUNT],
+    /// A clock below this has certainly not passed the epoch by more than the gap: one
+    /// comparison instead of a soft-float subtraction per observation on the Cortex-M4 (see
+    /// [`Synchronizer::tick`]).
+    within_gap_below: f64,
 }
 
 impl Pending {
@@ -159,8 +163,8 @@ impl Synchronizer {
                 // Repeated timestamp: the newest value wins, and the integral to it follows.
                 let before = hist.iter().rev().nth(1).copied();
                 let cum = match before {
-                    Some(b) => integrate(b, t, v, gap),
-                    None => last.cum,
+                    Some(b) if sig.integrated() => integrate(b, t, v, gap),
+                    _ => last.cum,
                 };
                 if let Some(l) = hist.back_mut() {
                     l.v = v;
@@ -172,8 +176,8 @@ impl Synchronizer {
             }
         }
         let cum = match hist.back() {
-            Some(b) => integrate(*b, t, v, gap),
-            None => Integral { value: 0.0, stretch: 0 },
+            Some(b) if sig.integrated() => integrate(*b, t, v, gap),
+            _ => Integral { value: 0.0, stretch: 0 },
         };
         if hist.is_full() {
             hist.pop_front();
@@ -212,7 +216,10 @@ impl Synchronizer {
         if self.pending.is_full() {
             self.force_front(emit);
         }
-        let _ = self.pending.push_back(Pending { fix, slots });
+        // `c < t + (gap - 1 ms)` implies `c - t < gap` exactly when the rounding of `t + ...`
+        // stays under 1 ms (|t| < 1e12 s); beyond that the exact test always runs.
+        let within_gap_below = if libm::fabs(fix.t) < 1e12 { fix.t + (self.cfg.max_gap_s - 1e-3) } else { f64::NEG_INFINITY };
+        let _ = self.pending.push_back(Pending { fix, slots, within_gap_below });
         self.tick(emit);
     }
 
@@ -237,7 +244,8 @@ impl Synchronizer {
 
     /// All inputs share one clock: an input far behind the latest time is a clock reset.
     fn check_clock_reset(&mut self, t: f64, emit: &mut impl FnMut(&Sample)) {
-        if self.clock.is_some_and(|c| t < c - self.cfg.reset_backjump_s) {
+        // `t >= c` (the usual case: inputs arrive in time order) settles it with one comparison.
+        if self.clock.is_some_and(|c| t < c && t < c - self.cfg.reset_backjump_s) {
             self.reset(emit);
             self.counters.resets = self.counters.resets.wrapping_add(1);
         }
@@ -252,53 +260,16 @@ impl Synchronizer {
 
     /// The reading of `sig` at epoch `te` if it can be decided now, else `Slot::Waiting`.
     fn resolve(&self, sig: Signal, te: f64) -> Slot {
-        let hist = &self.hist[sig.index()];
-        if hist.is_empty() {
-            return Slot::Done(Reading::Missing, None);
-        }
-        let gap = self.cfg.max_gap_s;
-        // Last observation at or before the epoch, and the one after it.
-        let mut before: Option<Obs> = None;
-        let mut after: Option<Obs> = None;
-        for o in hist.iter().rev() {
-            if o.t <= te {
-                before = Some(*o);
-                break;
-            }
-            after = Some(*o);
-        }
-        match (before, after) {
-            (Some(b), _) if b.t == te => Slot::Done(Reading::Valid(b.v), Some(b.cum)),
-            (Some(b), _) if te - b.t > gap => Slot::Done(Reading::Stale, None),
-            (Some(b), Some(a)) => {
-                if a.t - te > gap {
-                    Slot::Done(Reading::Stale, None)
-                } else {
-                    let w = ((te - b.t) / (a.t - b.t)) as f32;
-                    let v = b.v + (a.v - b.v) * w;
-                    Slot::Done(Reading::Valid(v), Some(integrate(b, te, v, gap)))
-                }
-            }
-            (Some(_), None) => match self.clock {
-                Some(c) if c - te > gap => Slot::Done(Reading::Stale, None),
-                _ => Slot::Waiting,
-            },
-            // Every kept observation is after the epoch: its predecessor is gone or never was.
-            (None, _) => Slot::Done(Reading::Stale, None),
-        }
+        resolve(&self.hist[sig.index()], sig.integrated(), self.cfg.max_gap_s, self.clock, te)
     }
 
     fn resolve_waiting(&mut self, sig: Signal) {
         let i = sig.index();
-        for k in 0..self.pending.len() {
-            let (slot, te) = match self.pending.iter().nth(k) {
-                Some(p) => (p.slots[i], p.fix.t),
-                None => break,
-            };
-            if slot == Slot::Waiting {
-                let r = self.resolve(sig, te);
-                if let Some(p) = self.pending.iter_mut().nth(k) {
-                    p.slots[i] = r;
+        let (hist, gap, clock) = (&self.hist[i], self.cfg.max_gap_s, self.clock);
+        for p in self.pending.iter_mut() {
+            if let Some(slot) = p.slots.get_mut(i) {
+                if *slot == Slot::Waiting {
+                    *slot = resolve(hist, sig.integrated(), gap, clock, p.fix.t);
                 }
             }
         }
@@ -308,12 +279,16 @@ impl Synchronizer {
     fn tick(&mut self, emit: &mut impl FnMut(&Sample)) {
         if let Some(c) = self.clock {
             let gap = self.cfg.max_gap_s;
-            for p in self.pending.iter_mut() {
-                if c - p.fix.t > gap {
-                    for s in p.slots.iter_mut() {
-                        if *s == Slot::Waiting {
-                            *s = Slot::Done(Reading::Stale, None);
-                        }
+            // Pending epochs are in time order, so once one is within the gap of the clock all
+            // later ones are (`c - t` is monotone in `t`, rounding included).
+            for p in self.pending.iter_mut().filter(|p| !p.ready()) {
+                let timed_out = c >= p.within_gap_below && c - p.fix.t > gap;
+                if !timed_out {
+                    break;
+                }
+                for s in p.slots.iter_mut() {
+                    if *s == Slot::Waiting {
+                        *s = Slot::Done(Reading::Stale, None);
                     }
                 }
             }
@@ -358,7 +333,7 @@ impl Synchronizer {
         let (dt_s, shift_m) = match self.prev_emitted {
             Some(prev) if p.fix.t > prev.t => (
                 (p.fix.t - prev.t) as f32,
-                Reading::Valid(haversine_m(prev.pos, p.fix.pos, self.cfg.earth_radius_m) as f32),
+                Reading::Valid(haversine_f32_m(prev.pos, p.fix.pos, self.cfg.earth_radius_m)),
             ),
             _ => (0.0, Reading::Missing),
         };
@@ -380,6 +355,44 @@ impl Synchronizer {
     }
 }
 
+/// The reading of a signal with history `hist` at epoch `te` if it can be decided now (the
+/// clock at `clock`), else `Slot::Waiting`.
+/// Only signals with `integrated` get the integral to the epoch (the others' is never read).
+fn resolve(hist: &Deque<Obs, HISTORY>, integrated: bool, gap: f64, clock: Option<f64>, te: f64) -> Slot {
+    if hist.is_empty() {
+        return Slot::Done(Reading::Missing, None);
+    }
+    // Last observation at or before the epoch, and the one after it.
+    let mut before: Option<Obs> = None;
+    let mut after: Option<Obs> = None;
+    for o in hist.iter().rev() {
+        if o.t <= te {
+            before = Some(*o);
+            break;
+        }
+        after = Some(*o);
+    }
+    match (before, after) {
+        (Some(b), _) if b.t == te => Slot::Done(Reading::Valid(b.v), integrated.then_some(b.cum)),
+        (Some(b), _) if te - b.t > gap => Slot::Done(Reading::Stale, None),
+        (Some(b), Some(a)) => {
+            if a.t - te > gap {
+                Slot::Done(Reading::Stale, None)
+            } else {
+                let w = ((te - b.t) / (a.t - b.t)) as f32;
+                let v = b.v + (a.v - b.v) * w;
+                Slot::Done(Reading::Valid(v), integrated.then(|| integrate(b, te, v, gap)))
+            }
+        }
+        (Some(_), None) => match clock {
+            Some(c) if c - te > gap => Slot::Done(Reading::Stale, None),
+            _ => Slot::Waiting,
+        },
+        // Every kept observation is after the epoch: its predecessor is gone or never was.
+        (None, _) => Slot::Done(Reading::Stale, None),
+    }
+}
+
 /// The integral at `t` from the observation `b` before it, `v` the value at `t`: a new stretch
 /// when `t` is more than `gap` after `b`.
 fn integrate(b: Obs, t: f64, v: f32, gap: f64) -> Integral {
@@ -387,7 +400,9 @@ fn integrate(b: Obs, t: f64, v: f32, gap: f64) -> Integral {
     if dt > gap {
         Integral { value: b.cum.value, stretch: b.cum.stretch.wrapping_add(1) }
     } else {
-        Integral { value: b.cum.value + dt * 0.5 * (b.v as f64 + v as f64), stretch: b.cum.stretch }
+        // The trapezoid in f32 on the FPU (an epoch's few metres or degrees to seven digits),
+        // accumulated in f64 so that hours of driving lose nothing.
+        Integral { value: b.cum.value + (dt as f32 * 0.5 * (b.v + v)) as f64, stretch: b.cum.stretch }
     }
 }
 

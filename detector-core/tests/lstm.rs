@@ -56,6 +56,30 @@ fn int_kernel_matches_reference_on_same_weights() {
     }
 }
 
+/// The optimised dot-product kernel of this build (AVX2 here, the DSP extension on the
+/// Cortex-M4, where the QEMU run checks the same) against the reference, bit for bit: layer
+/// sizes that leave every kind of tail (columns not a multiple of 4 or 16, an odd number of
+/// rows), the paper's 128/64, and the deployed model.
+#[test]
+fn optimised_and_portable_dot_products_give_identical_outputs() {
+    let check = |q: &[u8], what: &str| {
+        let m = LstmModel::parse(q).unwrap();
+        let mut a = LstmPredictor::int(m).unwrap();
+        let mut b = LstmPredictor::int_portable(m).unwrap();
+        for k in 0..300 {
+            let (ya, yb) = (a.step_raw(inputs(k)), b.step_raw(inputs(k)));
+            assert_eq!(ya.to_bits(), yb.to_bits(), "{what}, step {k}: {ya} vs {yb}");
+        }
+    };
+    for (h1, h2) in [(1, 1), (3, 5), (7, 2), (8, 4), (13, 9), (29, 31), (MAX_H1, MAX_H2)] {
+        check(&test_blobs(h1, h2).1, &format!("random weights h {h1}/{h2}"));
+    }
+    check(DEFAULT_MODEL, "the deployed model");
+    if gnss_guard_dsp::kernel() == gnss_guard_dsp::Kernel::Portable {
+        eprintln!("note: this host has no AVX2, so the optimised kernel here is the reference itself");
+    }
+}
+
 #[test]
 fn f32_and_int8_blobs_agree_and_reset_restarts() {
     let (f, q) = test_blobs(16, 8);

@@ -218,8 +218,9 @@ enum Cmd {
         #[arg(long)]
         export: PathBuf,
     },
-    /// Time the LSTM on this host (one core): the core's streaming step (integer and f32
-    /// reference) and burn's batch forward per observation; print the model blob sizes.
+    /// Time the LSTM on this host (one core): the core's streaming step (f32 reference, integer
+    /// on the portable dot product, integer on the optimised one, side by side) and burn's batch
+    /// forward per observation; print the model blob sizes.
     LstmBench {
         #[arg(long)]
         data: Option<PathBuf>,
@@ -488,10 +489,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let drives = load_drives(&dir.join("drives"))?;
             let runs = eval::validation_runs(&drives);
             anyhow::ensure!(!runs.is_empty(), "no validation drives in {}", dir.display());
-            let (steps, us_int, us_ref) = bench::lstm_kernels(&runs);
-            outln!("validation steps timed: {steps}");
-            outln!("streaming step, integer kernel (int8):  {us_int:.1} us");
-            outln!("streaming step, f32 reference kernel:   {us_ref:.1} us");
+            let t = bench::lstm_kernels(&runs);
+            outln!("validation steps timed: {} (one core, best of 3 passes)", t.steps);
+            outln!("streaming step, f32 reference kernel:            {:.2} us", t.us_ref);
+            outln!("streaming step, integer kernel, portable dot:    {:.2} us", t.us_portable);
+            outln!("streaming step, integer kernel, optimised dot:   {:.2} us ({:?})", t.us_fast, gnss_guard_dsp::kernel());
+            outln!("optimised vs portable integer outputs: {} of {} steps differ", t.differ, t.steps);
+            anyhow::ensure!(t.differ == 0, "the optimised integer kernel differs from the portable one");
             #[cfg(feature = "train")]
             outln!("burn batch forward [50 x 32] per observation: {:.2} us (paper: 0.691 us on a dual Xeon)", bench::burn_batch_us(&runs));
             #[cfg(not(feature = "train"))]

@@ -4,7 +4,7 @@ seed takes the first lines of the committed HDD test fixture."""
 import struct, random, os
 random.seed(1)
 os.chdir(os.path.dirname(os.path.abspath(__file__)))
-for t in "nmea can drive_csv openxc hdd comma2k19 template_blob replay_input detector".split():
+for t in "nmea can drive_csv openxc hdd comma2k19 template_blob replay_input detector dsp".split():
     os.makedirs("seeds/" + t, exist_ok=True)
 def ck(b):
     c = 0
@@ -63,3 +63,6 @@ off = 20 + 32 + len(can)
 h = b"GGQI" + struct.pack("<HHId", 1, 1, 3, 0.0) + b"clean".ljust(16, b"\0") + struct.pack("<dII", float("nan"), off, 2)
 open("seeds/replay_input/minimal", "wb").write(h + can + nmb)
 open("seeds/detector/random", "wb").write(bytes(random.randrange(256) for _ in range(24 * 30)))
+# dsp: a shape byte, activations, weights; extremes (0x80 weights, i16::MIN activations) too.
+open("seeds/dsp/random", "wb").write(bytes(random.randrange(256) for _ in range(1 + 96 + 600)))
+open("seeds/dsp/extremes", "wb").write(bytes([47]) + b"\x00\x80" * 48 + b"\x80" * 600)

@@ -172,6 +172,85 @@ pub fn lstm_blob(data: &[u8]) {
     }
 }
 
+/// The LSTM's dot-product kernels (`gnss-guard-dsp`): on arbitrary weights, activations and
+/// shapes, the optimised kernel of this machine (AVX2 here) and the Cortex-M4 algorithm on its
+/// DSP layout (`emulated`, instruction by instruction; the QEMU run checks the assembly) equal
+/// the portable reference; the integer LSTM on the optimised and portable dot products gives
+/// the same outputs on a blob whose weights are the input.
+pub fn dsp(data: &[u8]) {
+    use gnss_guard_dsp::{dsp_index, emulated, portable, Activations};
+    let Some((&shape, rest)) = data.split_first() else { return };
+    let cols = 1 + (shape as usize % 48);
+    let (v_bytes, w) = rest.split_at(rest.len().min(2 * cols));
+    let v: Vec<i16> = v_bytes.chunks_exact(2).map(|b| i16::from_le_bytes([b[0], b[1]])).collect();
+    let mut acts = Activations::<48>::default();
+    let (x, h) = v.split_at(v.len() / 3);
+    acts.load(&[x, h]);
+    // Two rows.
+    let (w0, w1) = w.split_at(w.len() / 2);
+    assert_eq!(acts.dot2(w0, w1), portable::dot2(w0, w1, &v), "dot2");
+    assert_eq!(acts.dot1(w0), portable::dot(w0, &v), "dot1");
+    // A matrix of `cols` columns (13, 16 and 48 cover the tails of every kernel).
+    fn matrix<const S: usize>(acts: &Activations<48>, w: &[u8], v: &[i16]) {
+        let mut out = [0i32; 9];
+        acts.matvec::<S>(w, &mut out);
+        let n = S.min(v.len());
+        for (r, o) in out.iter().enumerate() {
+            let row = w.get(r * S..).unwrap_or(&[]);
+            assert_eq!(*o, portable::dot(row.get(..n).unwrap_or(row), v), "matvec<{S}> row {r}");
+        }
+    }
+    matrix::<13>(&acts, w, &v);
+    matrix::<16>(&acts, w, &v);
+    matrix::<48>(&acts, w, &v);
+    // The Cortex-M4 algorithm on the DSP layout.
+    let n = w0.len().min(w1.len()).min(v.len());
+    let laid: Vec<i16> = (0..n).map(|i| v[dsp_index(i, n)]).collect();
+    let groups = n / 4;
+    let (mut a0, mut a1) = emulated::dot2_groups(w0, w1, &laid, groups);
+    for i in groups * 4..n {
+        a0 += w0[i] as i8 as i32 * v[i] as i32;
+        a1 += w1[i] as i8 as i32 * v[i] as i32;
+    }
+    assert_eq!((a0, a1), portable::dot2(w0, w1, &v), "emulated Cortex-M4 kernel");
+    // The whole integer LSTM, both dot products, on a blob made from the input.
+    lstm_parity(data);
+}
+
+/// An int8 blob (h1 = 5, h2 = 3: every tail) with weights from `data`; both integer kernels.
+fn lstm_parity(data: &[u8]) {
+    use detector_core::strategy::location_shift::lstm::{BlobSpec, LstmModel, LstmPredictor, WeightKind, N_IN};
+    let (h1, h2) = (5usize, 3usize);
+    let mut k = 0usize;
+    let mut next = |scale: f32| {
+        let b = data.get(k % data.len().max(1)).copied().unwrap_or(0);
+        k += 1;
+        (b as i8 as f32 / 128.0) * scale
+    };
+    let mut mk = |r: usize, c: usize| -> (Vec<f32>, Vec<f32>) { ((0..r * c).map(|_| next(1.0)).collect(), (0..r).map(|_| next(0.5)).collect()) };
+    let (l1, l2, d) = (mk(4 * h1, N_IN + h1), mk(4 * h2, h1 + h2), mk(1, h2));
+    let spec = BlobSpec {
+        kind: WeightKind::I8,
+        h1,
+        h2,
+        in_min: [0.0; N_IN],
+        in_max: [1.0; N_IN],
+        out_min: 0.0,
+        out_max: 1.0,
+        max_err_m: [0.0; 2],
+        rmse_m: [0.0; 2],
+        layers: [(&l1.0, &l1.1), (&l2.0, &l2.1), (&d.0, &d.1)],
+    };
+    let mut blob = vec![0u8; spec.byte_len()];
+    assert!(spec.write(&mut blob));
+    let m = LstmModel::parse(&blob).expect("a written blob parses");
+    let (mut a, mut b) = (LstmPredictor::int(m).unwrap(), LstmPredictor::int_portable(m).unwrap());
+    for i in 0..8 {
+        let x = [next(8.0), next(8.0), next(8.0), i as f32 * 0.1];
+        assert_eq!(a.step_raw(x).to_bits(), b.step_raw(x).to_bits(), "integer LSTM, step {i}");
+    }
+}
+
 /// The QEMU/digest replay input parser and runner.
 pub fn replay_input(data: &[u8]) {
     use gnss_guard_board::replay;
@@ -268,7 +347,7 @@ pub fn long_horizon(data: &[u8]) {
 pub type Harness = fn(&[u8]);
 
 /// All harnesses by name (the fuzz targets and the corpus replay use the same names).
-pub const TARGETS: [(&str, Harness); 11] = [
+pub const TARGETS: [(&str, Harness); 12] = [
     ("nmea", nmea),
     ("can", can),
     ("drive_csv", drive_csv),
@@ -277,6 +356,7 @@ pub const TARGETS: [(&str, Harness); 11] = [
     ("comma2k19", comma2k19),
     ("template_blob", template_blob),
     ("lstm_blob", lstm_blob),
+    ("dsp", dsp),
     ("replay_input", replay_input),
     ("detector", detector),
     ("long_horizon", long_horizon),

@@ -180,6 +180,14 @@ impl<'a> LstmModel<'a> {
     pub fn row_i8(&self, l: &Layer, r: usize) -> &'a [u8] {
         self.bytes.get(l.w + r * l.cols..l.w + (r + 1) * l.cols).unwrap_or(&[])
     }
+    /// Layer `l`'s int8 weights, row-major.
+    pub fn weights_i8(&self, l: &Layer) -> &'a [u8] {
+        self.bytes.get(l.w..l.w + l.rows * l.cols).unwrap_or(&[])
+    }
+    /// Layer `l`'s row multipliers and biases of an int8 layer, as little-endian i32 bytes.
+    pub fn mults_biases_i32(&self, l: &Layer) -> (&'a [u8], &'a [u8]) {
+        (self.bytes.get(l.mult..l.mult + 4 * l.rows).unwrap_or(&[]), self.bytes.get(l.bias..l.bias + 4 * l.rows).unwrap_or(&[]))
+    }
     /// Row `r`'s multiplier (real scale x 2^MULT_SHIFT) and bias (Q4.12) of an int8 layer.
     pub fn mult_i32(&self, l: &Layer, r: usize) -> i32 {
         i32_at(self.bytes, l.mult + 4 * r)

@@ -237,9 +237,9 @@ const POW10: [f64; 23] = [
     1e21, 1e22,
 ];
 
-/// A plain decimal `[+-]digits[.digits]` (at least one digit). Correctly rounded while the
-/// digits fit in 2^53 and there are at most 22 decimals (always, for NMEA fields).
-pub fn dec(s: &[u8]) -> Option<f64> {
+/// The digits of a plain decimal `[+-]digits[.digits]`: sign, mantissa (at most 19 digits
+/// kept) and decimals.
+fn digits(s: &[u8]) -> Option<(bool, u64, usize)> {
     let (neg, s) = match s {
         [b'-', r @ ..] => (true, r),
         [b'+', r @ ..] => (false, r),
@@ -263,9 +263,13 @@ pub fn dec(s: &[u8]) -> Option<f64> {
             _ => return None,
         }
     }
-    if digits == 0 {
-        return None;
-    }
+    (digits > 0).then_some((neg, m, frac))
+}
+
+/// A plain decimal `[+-]digits[.digits]` (at least one digit). Correctly rounded while the
+/// digits fit in 2^53 and there are at most 22 decimals (always, for NMEA fields).
+pub fn dec(s: &[u8]) -> Option<f64> {
+    let (neg, m, frac) = digits(s)?;
     let v = match POW10.get(frac) {
         Some(p) if m <= 1 << 53 => m as f64 / p,
         _ => {
@@ -279,8 +283,20 @@ pub fn dec(s: &[u8]) -> Option<f64> {
     Some(if neg { -v } else { v })
 }
 
-fn dec_f32(s: &[u8]) -> Option<f32> {
-    dec(s).map(|v| v as f32).filter(|v| v.is_finite())
+/// Powers of ten exactly representable in f32.
+const POW10_F32: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+
+/// [`dec`] to f32: one FPU division (correctly rounded: both operands exact) while the digits
+/// fit in 2^24 and there are at most 10 decimals (speeds, courses, DOPs: always), else through
+/// [`dec`]. Soft-float f64 costs hundreds of instructions a field on the Cortex-M4.
+pub fn dec_f32(s: &[u8]) -> Option<f32> {
+    let (neg, m, frac) = digits(s)?;
+    let v = match POW10_F32.get(frac) {
+        Some(p) if m <= 1 << 24 => m as f32 / p,
+        _ => dec(s)? as f32,
+    };
+    let v = if neg { -v } else { v };
+    v.is_finite().then_some(v)
 }
 
 /// `d..dmm.mmm` with `deg_digits` degree digits: degrees + minutes / 60.
@@ -359,6 +375,20 @@ mod tests {
         let _ = line.extend_from_slice(&[b'*', b"0123456789ABCDEF"[(c >> 4) as usize], b"0123456789ABCDEF"[(c & 15) as usize]]);
         assert_eq!(parse(&line), Err(NmeaError::Field(2)));
         assert_eq!(parse(b"$PUBX,00*33"), Ok(Sentence::Other));
+    }
+
+    #[test]
+    fn f32_decimals_are_correctly_rounded() {
+        extern crate std;
+        for s in ["0", "0.5", "10.0", "005.5", "054.7", "359.99", "0.1", "0.8", "16777216", "16777217", "123.4567891", "-3.25", "+7.125", "99999.99999"] {
+            assert_eq!(dec_f32(s.as_bytes()), s.parse::<f32>().ok(), "{s}");
+        }
+        let mut x = 1u32;
+        for _ in 0..20_000 {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let s = std::format!("{}.{:0w$}", x % 100_000, (x >> 7) % 1000, w = 1 + (x % 3) as usize);
+            assert_eq!(dec_f32(s.as_bytes()), s.parse::<f32>().ok(), "{s}");
+        }
     }
 
     #[test]

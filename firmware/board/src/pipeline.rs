@@ -10,6 +10,7 @@ use detector_core::sample::Sample;
 use detector_core::strategy::location_shift::Predictor;
 use detector_core::strategy::turn::TemplateSet;
 use detector_core::sync::{SyncConfig, Synchronizer};
+use detector_core::stage::{NoStopwatch, Stage, Stopwatch};
 
 /// FNV-1a 64 over a canonical encoding of every verdict: equal digests mean equal verdict
 /// streams, down to the bits of every residual and threshold.
@@ -96,6 +97,11 @@ impl<'t> Pipeline<'t> {
     /// One received CAN frame (standard id) at time `t`, seconds. Our clear request clears
     /// the latched alarm.
     pub fn on_can(&mut self, t: f64, id: u32, data: &[u8], out: &mut impl FnMut(&Verdict)) {
+        self.on_can_timed(t, id, data, out, &mut NoStopwatch)
+    }
+
+    /// [`Pipeline::on_can`], telling `w` where each stage ends (the QEMU run's breakdown).
+    pub fn on_can_timed<W: Stopwatch + ?Sized>(&mut self, t: f64, id: u32, data: &[u8], out: &mut impl FnMut(&Verdict), w: &mut W) {
         self.frames = self.frames.wrapping_add(1);
         if can::is_clear_request(id, data) {
             self.det.clear_alarm();
@@ -106,25 +112,35 @@ impl<'t> Pipeline<'t> {
         }
         let Self { sync, det, digest, epochs, health, alarm, .. } = self;
         for (sig, v) in can::decode(id, data) {
-            sync.push_obs(sig, t, v, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s));
+            w.lap(Stage::CanDecode);
+            sync.push_obs(sig, t, v, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s, w));
+            w.lap(Stage::Sync);
         }
+        w.lap(Stage::CanDecode);
     }
 
     /// One NMEA sentence received at time `t`, seconds.
     pub fn on_nmea(&mut self, t: f64, line: &[u8], out: &mut impl FnMut(&Verdict)) {
+        self.on_nmea_timed(t, line, out, &mut NoStopwatch)
+    }
+
+    /// [`Pipeline::on_nmea`], telling `w` where each stage ends (the QEMU run's breakdown).
+    pub fn on_nmea_timed<W: Stopwatch + ?Sized>(&mut self, t: f64, line: &[u8], out: &mut impl FnMut(&Verdict), w: &mut W) {
         let fix = self.nmea.line(t, line);
         let c = self.nmea.counters;
         self.health.counters.nmea_errors = c.rejected.saturating_add(c.overlong).saturating_add(self.uart_errors);
+        w.lap(Stage::NmeaParse);
         let Some(fix) = fix else { return };
         self.health.on_fix(t);
         let Self { sync, det, digest, epochs, health, alarm, .. } = self;
-        sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s));
+        sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s, w));
+        w.lap(Stage::Sync);
     }
 
     /// Emits what is pending (end of a replay), at time `t`.
     pub fn finish(&mut self, t: f64, out: &mut impl FnMut(&Verdict)) {
         let Self { sync, det, digest, epochs, health, alarm, .. } = self;
-        sync.flush(&mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s));
+        sync.flush(&mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s, &mut NoStopwatch));
     }
 
     /// What is owed to the bus at `now`: an alarm frame (pending, or the latched alarm's
@@ -137,9 +153,9 @@ impl<'t> Pipeline<'t> {
 }
 
 /// One synchronised sample through the detector into the digest, the health and the alarm
-/// outbox, and out.
+/// outbox, and out. The time before it belongs to the synchroniser that emitted the sample.
 #[allow(clippy::too_many_arguments)]
-fn judge(
+fn judge<W: Stopwatch + ?Sized>(
     det: &mut Detector<'_, Predictor<'_>>,
     digest: &mut Digest,
     epochs: &mut u32,
@@ -148,11 +164,14 @@ fn judge(
     now: f64,
     out: &mut impl FnMut(&Verdict),
     s: &Sample,
+    w: &mut W,
 ) {
-    let v = det.step(s);
+    w.lap(Stage::Sync);
+    let v = det.step_timed(s, w);
     digest.add(&v);
     *epochs = epochs.wrapping_add(1);
     health.on_verdict(&v, now);
     alarm.on_verdict(&v);
     out(&v);
+    w.lap(Stage::Output);
 }

@@ -24,6 +24,7 @@ use detector_core::wire::le::{f64 as f64_at, u16 as u16_at, u32 as u32_at};
 use detector_core::fusion::{Config, Verdict};
 use detector_core::strategy::location_shift::{Predictor, ShiftPredictor};
 use detector_core::strategy::turn::TemplateSet;
+use detector_core::stage::{NoStopwatch, Stage, Stopwatch};
 
 pub const MAGIC: &[u8; 4] = b"GGQI";
 pub const VERSION: u16 = 2;
@@ -211,7 +212,9 @@ impl Outcome {
 
 /// Replays scenario `i` through a fresh pipeline, in arrival order. `clock` returns a running
 /// cost counter (SysTick on the target, anything on the host); `cost` receives, for every epoch,
-/// the counter difference since the previous epoch: everything the firmware did for it.
+/// what the pipeline's calls (CAN frames, NMEA sentences, the poll for outgoing frames) took
+/// since the previous epoch: everything the firmware did for it, and nothing of the replay's
+/// own loop and checks.
 pub fn run<'t>(
     input: &Input,
     i: usize,
@@ -220,6 +223,21 @@ pub fn run<'t>(
     predictor: &Predictor<'t>,
     clock: &mut dyn FnMut() -> u32,
     cost: &mut dyn FnMut(u32),
+) -> Result<Outcome, InputError> {
+    run_timed(input, i, cfg, templates, predictor, clock, cost, &mut NoStopwatch)
+}
+
+/// [`run`], telling `w` where each stage of the pipeline ends (the QEMU run's breakdown).
+#[allow(clippy::too_many_arguments)]
+pub fn run_timed<'t>(
+    input: &Input,
+    i: usize,
+    cfg: Config,
+    templates: TemplateSet<'t>,
+    predictor: &Predictor<'t>,
+    clock: &mut dyn FnMut() -> u32,
+    cost: &mut dyn FnMut(u32),
+    w: &mut dyn Stopwatch,
 ) -> Result<Outcome, InputError> {
     let sc = input.scenario(i)?;
     let mut fresh = predictor.clone();
@@ -239,16 +257,16 @@ pub fn run<'t>(
         longest_call: 0,
     };
     let mut onset_epoch: Option<u32> = None;
-    let mut last_mark = clock();
+    let mut busy: u32 = 0;
     let t0 = input.t0;
     let mut gate = WatchdogGate::default();
     let mut next_gate_t = f64::NEG_INFINITY;
     let mut first_fix_t: Option<f64> = None;
     let mut latched_since: Option<f64> = None;
     let mut last_t = t0;
-    let mut on_verdict = |v: &Verdict, o: &mut Outcome, onset_epoch: &mut Option<u32>, now: u32, last_mark: &mut u32| {
-        cost(now.wrapping_sub(*last_mark));
-        *last_mark = now;
+    let mut on_verdict = |v: &Verdict, o: &mut Outcome, onset_epoch: &mut Option<u32>, busy: &mut u32| {
+        cost(*busy);
+        *busy = 0;
         let rel = v.t - t0;
         if rel >= onset && onset_epoch.is_none() {
             *onset_epoch = Some(v.epoch);
@@ -278,30 +296,48 @@ pub fn run<'t>(
             None
         };
         let mut got = heapless::Vec::<Verdict, 8>::new();
+        w.lap(Stage::Other);
         let call_start = clock();
         let now = match (next_can, next_nmea) {
             (Some((tc, id, data)), Some((tn, _))) if tc <= tn => {
                 let t = t0 + tc as f64 * 1e-6;
-                p.on_can(t, id, data, &mut |v| {
-                    let _ = got.push(*v);
-                });
+                p.on_can_timed(
+                    t,
+                    id,
+                    data,
+                    &mut |v| {
+                        let _ = got.push(*v);
+                    },
+                    w,
+                );
                 k += 1;
                 t
             }
             (Some((tc, id, data)), None) => {
                 let t = t0 + tc as f64 * 1e-6;
-                p.on_can(t, id, data, &mut |v| {
-                    let _ = got.push(*v);
-                });
+                p.on_can_timed(
+                    t,
+                    id,
+                    data,
+                    &mut |v| {
+                        let _ = got.push(*v);
+                    },
+                    w,
+                );
                 k += 1;
                 t
             }
             (_, Some((tn, line))) => {
                 let t = t0 + tn as f64 * 1e-6;
                 let fixes = p.nmea.counters.fixes;
-                p.on_nmea(t, line, &mut |v| {
-                    let _ = got.push(*v);
-                });
+                p.on_nmea_timed(
+                    t,
+                    line,
+                    &mut |v| {
+                        let _ = got.push(*v);
+                    },
+                    w,
+                );
                 if p.nmea.counters.fixes != fixes {
                     first_fix_t.get_or_insert(t);
                 }
@@ -313,11 +349,13 @@ pub fn run<'t>(
         };
         last_t = now;
         let out = p.poll(now);
+        w.lap(Stage::Output);
         let c = clock();
         o.longest_call = o.longest_call.max(c.wrapping_sub(call_start));
+        busy = busy.wrapping_add(c.wrapping_sub(call_start));
         if !got.is_empty() {
             for v in &got {
-                on_verdict(v, &mut o, &mut onset_epoch, c, &mut last_mark);
+                on_verdict(v, &mut o, &mut onset_epoch, &mut busy);
             }
         }
         // The firmware's transmit side: the frames owed to the bus, decoded as the bus sees them.
@@ -367,12 +405,13 @@ pub fn run<'t>(
         }
     }
     let mut tail = heapless::Vec::<Verdict, 32>::new();
+    let call_start = clock();
     p.finish(last_t, &mut |v| {
         let _ = tail.push(*v);
     });
-    let c = clock();
+    busy = busy.wrapping_add(clock().wrapping_sub(call_start));
     for v in &tail {
-        on_verdict(v, &mut o, &mut onset_epoch, c, &mut last_mark);
+        on_verdict(v, &mut o, &mut onset_epoch, &mut busy);
     }
     o.epochs = p.epochs;
     o.digest = p.digest;

@@ -65,14 +65,14 @@ pub struct SignalDef {
 }
 
 fn field_of(s: &can_dbc::Signal) -> Field {
-    Field {
-        start_bit: s.start_bit as u16,
-        size: s.size as u8,
-        big_endian: s.byte_order == can_dbc::ByteOrder::BigEndian,
-        signed: s.value_type == can_dbc::ValueType::Signed,
-        factor: s.factor,
-        offset: s.offset,
-    }
+    Field::new(
+        s.start_bit as u16,
+        s.size as u8,
+        s.byte_order == can_dbc::ByteOrder::BigEndian,
+        s.value_type == can_dbc::ValueType::Signed,
+        s.factor,
+        s.offset,
+    )
 }
 
 /// The messages of a DBC.
@@ -185,16 +185,7 @@ pub fn load(dbc_text: &str, map_text: &str) -> Result<Profile, LoadError> {
                 Some((m.field, v))
             }
         };
-        mappings.push(Mapped {
-            id: msg.id,
-            extended: msg.extended,
-            bus,
-            field: main.field,
-            plus: rest.first().map(|p| p.field),
-            mux,
-            signal,
-            factor,
-        });
+        mappings.push(Mapped::new(msg.id, msg.extended, bus, main.field, rest.first().map(|p| p.field), mux, signal, factor));
     }
     Ok(Profile { mappings })
 }
@@ -202,7 +193,7 @@ pub fn load(dbc_text: &str, map_text: &str) -> Result<Profile, LoadError> {
 /// A field as a Rust expression (for the firmware's build script).
 pub fn rust_field(f: &Field) -> String {
     format!(
-        "Field {{ start_bit: {}, size: {}, big_endian: {}, signed: {}, factor: {:?}, offset: {:?} }}",
+        "Field::new({}, {}, {}, {}, {:?}, {:?})",
         f.start_bit, f.size, f.big_endian, f.signed, f.factor, f.offset
     )
 }
@@ -213,7 +204,7 @@ pub fn rust_mappings(ms: &[Mapped]) -> String {
     for m in ms {
         let _ = writeln!(
             out,
-            "    Mapped {{ id: {:#x}, extended: {}, bus: {:?}, field: {}, plus: {}, mux: {}, signal: Signal::{:?}, factor: {:?} }},",
+            "    Mapped::new({:#x}, {}, {:?}, {}, {}, {}, Signal::{:?}, {:?}),",
             m.id,
             m.extended,
             m.bus,

@@ -19,9 +19,17 @@ pub struct Mapped {
     pub signal: Signal,
     /// Our unit = DBC physical value * factor (a negative factor flips the sign convention).
     pub factor: f64,
+    /// `factor` rounded to f32 once (the FPU path of [`Mapped::value`]).
+    pub factor32: f32,
 }
 
 impl Mapped {
+    /// A mapping; the f32 copy of the factor is made here.
+    #[allow(clippy::too_many_arguments)]
+    pub const fn new(id: u32, extended: bool, bus: Option<u8>, field: Field, plus: Option<Field>, mux: Option<(Field, u64)>, signal: Signal, factor: f64) -> Self {
+        Mapped { id, extended, bus, field, plus, mux, signal, factor, factor32: factor as f32 }
+    }
+
     /// Does this mapping read frames with this id, id space and bus?
     pub fn matches(&self, id: u32, extended: bool, bus: Option<u8>) -> bool {
         self.id == id && self.extended == extended && (self.bus.is_none() || bus.is_none() || self.bus == bus)
@@ -35,11 +43,24 @@ impl Mapped {
                 return None;
             }
         }
-        let mut v = self.field.physical(data)?;
-        if let Some(p) = self.plus {
-            v += p.physical(data)?;
-        }
-        let v = (v * self.factor) as f32;
+        // Fields of up to 24 bits convert to f32 exactly: scale them on the FPU (within a few
+        // f32 roundings of the f64 path, far below any sensor's resolution; f64 is soft float on
+        // the Cortex-M4). Wider fields take f64.
+        let narrow = |f: &Field| f.size <= 24;
+        let v = if narrow(&self.field) && self.plus.as_ref().is_none_or(narrow) {
+            let phys = |f: &Field| -> Option<f32> { Some(f.raw(data)? as f32 * f.factor32 + f.offset32) };
+            let mut v = phys(&self.field)?;
+            if let Some(p) = &self.plus {
+                v += phys(p)?;
+            }
+            v * self.factor32
+        } else {
+            let mut v = self.field.physical(data)?;
+            if let Some(p) = self.plus {
+                v += p.physical(data)?;
+            }
+            (v * self.factor) as f32
+        };
         v.is_finite().then_some(v)
     }
 }

@@ -17,7 +17,10 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use detector_core::fusion::Config;
 use detector_core::profile::UBLOX_10HZ;
+use detector_core::stage::{Stage, Stopwatch};
+use detector_core::strategy::location_shift::lstm::LstmPredictor;
 use detector_core::strategy::location_shift::{KinematicPredictor, Predictor};
+use detector_core::strategy::turn::knn::classify;
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
 use gnss_guard_board::replay::{self, Input};
 use panic_semihosting as _;
@@ -64,6 +67,183 @@ fn epoch_costs<'t>(
     }
 }
 
+/// SysTick ticks per stage of the data path (its own running counter; the same hardware).
+struct TickWatch {
+    last: u32,
+    ticks: [u64; Stage::ALL.len()],
+    laps: [u32; Stage::ALL.len()],
+}
+
+impl TickWatch {
+    fn new() -> Self {
+        TickWatch { last: SYST::get_current(), ticks: [0; Stage::ALL.len()], laps: [0; Stage::ALL.len()] }
+    }
+}
+
+impl Stopwatch for TickWatch {
+    fn lap(&mut self, stage: Stage) {
+        let now = SYST::get_current();
+        let d = self.last.wrapping_sub(now) & 0x00FF_FFFF;
+        self.last = now;
+        if let (Some(t), Some(n)) = (self.ticks.get_mut(stage.index()), self.laps.get_mut(stage.index())) {
+            *t += d as u64;
+            *n += 1;
+        }
+    }
+}
+
+/// Where an epoch's instructions go: every non-outage scenario again, with a stopwatch at each
+/// stage boundary (its own cost, a SysTick read per boundary, lands in the next stage).
+fn stage_breakdown<'t>(input: &Input, cfg: Config, templates: TemplateSet<'t>, predictor: &Predictor<'t>, clock: &mut dyn FnMut() -> u32) {
+    let mut w = TickWatch::new();
+    let mut epochs = 0u64;
+    let mut epoch_ticks = 0u64;
+    for i in 0..input.scenarios() {
+        if input.scenario(i).is_ok_and(|sc| sc.kind == replay::Kind::GnssOutage) {
+            continue;
+        }
+        let mut cost = |c: u32| {
+            epochs += 1;
+            epoch_ticks += c as u64;
+        };
+        if replay::run_timed(input, i, cfg, templates, predictor, clock, &mut cost, &mut w).is_err() {
+            fail("replay failed");
+        }
+    }
+    let instr = |ticks: u64| ticks * 1000 / TICKS_PER_1000_INSTR;
+    let epochs = epochs.max(1);
+    hprintln!("instructions per epoch by stage (mean over {} epochs; the epoch mean is {}):", epochs, instr(epoch_ticks) / epochs);
+    for st in Stage::ALL {
+        let (t, n) = (w.ticks[st.index()], w.laps[st.index()]);
+        if st == Stage::TurnQuery {
+            hprintln!("  {:<26} {:>7}  ({} queries, {} instructions per query)", st.name(), instr(t) / epochs, n, if n > 0 { instr(t) / n as u64 } else { 0 });
+        } else {
+            hprintln!("  {:<26} {:>7}", st.name(), instr(t) / epochs);
+        }
+    }
+}
+
+/// Strategy 2's k-NN alone: a 32-point query against every template, for queries made from
+/// templates of the set with a 6-degree sine added (so no query is its own template).
+fn turn_query_cost(templates: TemplateSet, clock: &mut dyn FnMut() -> u32) {
+    let mut costs: heapless::Vec<u32, 64> = heapless::Vec::new();
+    for i in (0..templates.len()).step_by((templates.len() / 32).max(1)) {
+        let (_, _, mut q) = templates.get(i);
+        for (j, v) in q.iter_mut().enumerate() {
+            *v += 6.0 * libm::sinf(j as f32 * 0.4 + i as f32);
+        }
+        let a = clock();
+        core::hint::black_box(classify(&templates, core::hint::black_box(&q), 1));
+        let _ = costs.push(clock().wrapping_sub(a));
+    }
+    costs.sort_unstable();
+    if let (Some(&min), Some(&max)) = (costs.first(), costs.last()) {
+        let instr = |ticks: u32| ticks as u64 * 1000 / TICKS_PER_1000_INSTR;
+        hprintln!(
+            "instructions per turn query (32 points, k-NN over {} templates, {} queries): min {} median {} max {}",
+            templates.len(),
+            costs.len(),
+            instr(min),
+            instr(costs[costs.len() / 2]),
+            instr(max)
+        );
+    }
+}
+
+/// The Cortex-M4 assembly kernels against the portable reference on this very core: random
+/// weights (all byte values) and activations (all i16 values, LCG), row lengths with every
+/// tail, and the LSTM's two layer shapes; then the whole integer LSTM on both dot products.
+/// Returns the number of cases, or the first that differs.
+fn dsp_parity(predictor: &Predictor) -> Result<u32, &'static str> {
+    use gnss_guard_dsp::{portable, Activations};
+    let mut seed = 0x2545_f491u32;
+    let mut rnd = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed
+    };
+    let mut w = [0u8; 8 * 192];
+    let mut v = [0i16; 192];
+    let mut cases = 0u32;
+    for round in 0..24 {
+        for b in w.iter_mut() {
+            *b = rnd() as u8;
+        }
+        for x in v.iter_mut() {
+            // Every fourth round at the extremes.
+            *x = if round % 4 == 3 { [i16::MIN, i16::MAX, -1, 0][rnd() as usize % 4] } else { rnd() as i16 };
+        }
+        let mut acts: Activations<192> = Activations::default();
+        let split = rnd() as usize % 64;
+        acts.load(&[&v[..split], &v[split..]]);
+        for len in [0usize, 1, 3, 4, 5, 8, 13, 64, 131, 132, 191, 192] {
+            let n = len.min(192);
+            let (w0, w1) = (&w[..n], &w[192..192 + n]);
+            if acts.dot2(w0, w1) != portable::dot2(w0, w1, &v) {
+                return Err("dot2 differs from the portable kernel");
+            }
+            cases += 1;
+        }
+        let mut out = [0i32; 8];
+        acts.matvec::<132>(&w, &mut out);
+        for (r, o) in out.iter().enumerate() {
+            if *o != portable::dot(&w[r * 132..(r + 1) * 132], &v[..132]) {
+                return Err("matvec<132> differs from the portable kernel");
+            }
+        }
+        acts.matvec::<192>(&w, &mut out);
+        for (r, o) in out.iter().enumerate() {
+            if *o != portable::dot(&w[r * 192..(r + 1) * 192], &v) {
+                return Err("matvec<192> differs from the portable kernel");
+            }
+        }
+        cases += 2;
+    }
+    if let Predictor::Lstm(l) = predictor {
+        let model = l.primary.model;
+        let (Ok(mut a), Ok(mut b)) = (LstmPredictor::int(model), LstmPredictor::int_portable(model)) else {
+            return Err("the model is not int8");
+        };
+        for k in 0..32u32 {
+            let x = [(rnd() % 40) as f32, (rnd() % 100) as f32, (rnd() % 400) as f32 - 200.0, (k % 30) as f32];
+            if a.step_raw(x).to_bits() != b.step_raw(x).to_bits() {
+                return Err("the integer LSTM differs between the DSP and portable dot products");
+            }
+            cases += 1;
+        }
+    }
+    Ok(cases)
+}
+
+/// The per-epoch geodesy, f64 (soft float on the M4) against the f32 forms the detector runs:
+/// instructions per call, 64 calls each on a 2.2 m shift.
+fn geodesy_cost(clock: &mut dyn FnMut() -> u32) {
+    use core::hint::black_box;
+    use detector_core::geo::{bearing_f32_deg, haversine_f32_m, haversine_m, initial_bearing_deg, LatLon, EARTH_RADIUS_PAPER_M};
+    let (a, b) = (LatLon::new(37.4, -122.1), LatLon::new(37.40001, -122.10002));
+    let mut per_call = |f: &mut dyn FnMut()| {
+        let t = clock();
+        for _ in 0..64 {
+            f();
+        }
+        clock().wrapping_sub(t) as u64 * 1000 / TICKS_PER_1000_INSTR / 64
+    };
+    let h64 = per_call(&mut || {
+        black_box(haversine_m(black_box(a), black_box(b), EARTH_RADIUS_PAPER_M));
+    });
+    let h32 = per_call(&mut || {
+        black_box(haversine_f32_m(black_box(a), black_box(b), EARTH_RADIUS_PAPER_M));
+    });
+    let b64 = per_call(&mut || {
+        black_box(initial_bearing_deg(black_box(a), black_box(b)));
+    });
+    let b32 = per_call(&mut || {
+        black_box(bearing_f32_deg(black_box(a), black_box(b)));
+    });
+    hprintln!("instructions per call: haversine f64 {} / f32 {}, bearing f64 {} / f32 {}", h64, h32, b64, b32);
+}
+
 #[entry]
 fn main() -> ! {
     let Some(mut cp) = cortex_m::Peripherals::take() else { fail("peripherals taken twice") };
@@ -80,6 +260,10 @@ fn main() -> ! {
         fail("the LSTM model is malformed");
     }
     let cfg = Config::for_predictor(&UBLOX_10HZ, &predictor);
+    match dsp_parity(&predictor) {
+        Ok(n) => hprintln!("DSP kernels (SXTB16/SMLAD assembly) against the portable kernel: {} cases, all identical", n),
+        Err(e) => fail(e),
+    }
 
     let mut last = SYST::get_current();
     let mut total: u32 = 0;
@@ -133,6 +317,9 @@ fn main() -> ! {
         all = false;
         hprintln!("qemu-run: the CAN queue could overflow during the longest call: FAIL");
     }
+    stage_breakdown(&input, cfg, templates, &predictor, &mut clock);
+    turn_query_cost(templates, &mut clock);
+    geodesy_cost(&mut clock);
     // The cost of the paper's strategies alone: the same scenarios without the track check.
     let mut paper_cfg = cfg;
     paper_cfg.track.enabled = false;

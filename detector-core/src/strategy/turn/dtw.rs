@@ -110,7 +110,10 @@ pub fn resample(src: &[f32], dst: &mut [f32]) {
         let i = (x as usize).min(n - 1);
         let j = (i + 1).min(n - 1);
         let w = x - i as f32;
-        *d = src[i] + (src[j] - src[i]) * w;
+        // In range (i, j < n); read through `get` so that no optimisation level leaves a
+        // bounds check (a panic path) behind.
+        let (a, b) = (src.get(i).copied().unwrap_or(0.0), src.get(j).copied().unwrap_or(0.0));
+        *d = a + (b - a) * w;
     }
 }
 

@@ -19,7 +19,7 @@
 //! and `start` for minutes). During the warm-up after a (re)start nothing starts; `quiet` is
 //! kept. Indices are ring positions; they move down as old ticks leave.
 
-use crate::geo::angle_diff_deg;
+use crate::geo::angle_diff_f32_deg;
 use heapless::Deque;
 
 /// Longest segment, 5 Hz ticks (16 s).
@@ -46,6 +46,9 @@ pub struct Tick {
     pub dist: f32,
     /// Wheel speed (else GNSS speed), m/s; NaN when unknown.
     pub speed: f32,
+    /// The heading change over this tick that the steering implies (bicycle model), degrees;
+    /// computed once per tick (a tangent) instead of at every look back over the window.
+    pub implied_deg: f32,
 }
 
 /// Where the segmenter is.
@@ -140,7 +143,7 @@ impl Segmenter {
         let mut prev: Option<f32> = None;
         for t in self.ring.iter().skip(from).take((to + 1).saturating_sub(from)) {
             if let Some(p) = prev {
-                net += angle_diff_deg(p as f64, t.heading as f64) as f32;
+                net += angle_diff_f32_deg(p, t.heading);
             }
             prev = Some(t.heading);
         }

@@ -5,7 +5,7 @@
 use super::dtw::resample;
 use super::knn::classify;
 use super::segmenter::{SegEvent, SegmentRule, Segmenter, Tick, MAX_LEAD, MAX_SEGMENT, TICK_S};
-use crate::geo::{haversine_m, initial_bearing_deg, LatLon, EARTH_RADIUS_PAPER_M};
+use crate::geo::{bearing_f32_deg, haversine_f32_m, LatLon, EARTH_RADIUS_PAPER_M};
 use crate::sample::Sample;
 use crate::vehicle::Bicycle;
 use crate::wire::templates::{TemplateSet, TurnClass, QUERY_LEN};
@@ -229,8 +229,8 @@ impl<'a> TurnStrategy<'a> {
         match (s.gnss_course.get(), self.heading_anchor) {
             (Some(c), _) if moving && s.gnss_speed.is_valid() => self.heading = Some(c),
             (_, Some(a)) => {
-                if haversine_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= 3.0 {
-                    self.heading = Some(initial_bearing_deg(a, s.pos) as f32);
+                if haversine_f32_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= 3.0 {
+                    self.heading = Some(bearing_f32_deg(a, s.pos));
                     self.heading_anchor = Some(s.pos);
                 }
             }
@@ -244,6 +244,7 @@ impl<'a> TurnStrategy<'a> {
         let shift = s.shift_m.get().filter(|d| d.is_finite() && *d < 1e4).unwrap_or(0.0);
         let speed = s.wheel_speed().get().or(s.gnss_speed.get()).filter(|v| v.is_finite()).unwrap_or(f32::NAN);
         let mut out = None;
+        let bicycle = self.cfg.bicycle();
         match self.last {
             Some(LastSample { t: t0, steer: st0, heading: h0, speed: v0 }) if s.t > t0 && s.t - t0 <= self.cfg.max_gap_s as f64 => {
                 let d0 = self.dist;
@@ -258,12 +259,14 @@ impl<'a> TurnStrategy<'a> {
                 while self.next_tick <= s.t && n < max_ticks {
                     n += 1;
                     let w = ((self.next_tick - t0) / (s.t - t0)) as f32;
+                    let (steer, speed) = (st0 + (steer - st0) * w, v0 + (speed - v0) * w);
                     let tick = Tick {
                         t: self.next_tick,
-                        steer: st0 + (steer - st0) * w,
+                        steer,
                         heading: if w < 1.0 { h0 } else { heading },
                         dist: d0 + shift * w,
-                        speed: v0 + (speed - v0) * w,
+                        speed,
+                        implied_deg: bicycle.heading_change_deg(steer, speed, TICK_S as f32),
                     };
                     if let Some(o) = self.on_tick(tick, derived) {
                         if out.is_none() || o.mismatch.is_some() {
@@ -278,7 +281,8 @@ impl<'a> TurnStrategy<'a> {
                 self.seg.restart(s.t);
                 self.dist = 0.0;
                 self.next_tick = s.t;
-                let tick = Tick { t: s.t, steer, heading, dist: 0.0, speed };
+                let implied_deg = bicycle.heading_change_deg(steer, speed, TICK_S as f32);
+                let tick = Tick { t: s.t, steer, heading, dist: 0.0, speed, implied_deg };
                 let _ = self.on_tick(tick, derived);
                 self.next_tick = s.t + TICK_S;
             }
@@ -314,10 +318,9 @@ impl<'a> TurnStrategy<'a> {
             return None; // wheel turned while (almost) standing: nothing for GNSS to show
         }
         // Heading change the steering implies (kinematic bicycle model, + = right like bearings).
-        let bicycle = self.cfg.bicycle();
         let mut implied = 0.0f32;
         for t in self.seg.ticks().skip(st).take(n) {
-            implied += bicycle.heading_change_deg(t.steer, t.speed, TICK_S as f32);
+            implied += t.implied_deg;
         }
         let (class, distance) = match self.templates.as_ref().and_then(|set| classify(set, &q, self.cfg.k)) {
             Some(nb) => (nb.class, nb.distance),
@@ -357,11 +360,13 @@ impl<'a> TurnStrategy<'a> {
         let last = *self.seg.ticks().next_back()?;
         let end = self.seg.len() - 1;
         let mut from = end;
-        let bicycle = c.bicycle();
         let mut implied = 0.0f32;
-        for (i, t) in self.seg.ticks().enumerate().rev() {
-            let age = last.t - t.t;
-            if age > (c.heading_window_s + c.heading_margin_s()) as f64 {
+        // Ages in ticks (the ring holds consecutive ticks TICK_S apart since its restart):
+        // integer comparisons instead of a soft-float subtraction per tick on the Cortex-M4.
+        let ticks_within = |s: f32| (s / TICK_S as f32 + 1e-3) as usize;
+        let (window_ticks, total_ticks) = (ticks_within(c.heading_window_s), ticks_within(c.heading_window_s + c.heading_margin_s()));
+        for (age, (i, t)) in self.seg.ticks().enumerate().rev().enumerate() {
+            if age > total_ticks {
                 break;
             }
             // The wheel straight over the window and a margin before it (GNSS headings lag a
@@ -369,11 +374,11 @@ impl<'a> TurnStrategy<'a> {
             if !(libm::fabsf(t.steer) < c.settle_deg && t.speed >= c.min_speed_mps) {
                 return None;
             }
-            if age > c.heading_window_s as f64 {
+            if age > window_ticks {
                 continue;
             }
             if i < end {
-                implied += bicycle.heading_change_deg(t.steer, t.speed, TICK_S as f32);
+                implied += t.implied_deg;
             }
             from = i;
         }

@@ -34,13 +34,13 @@ mod tests {
     #[test]
     fn motorola_and_intel_fields() {
         // 12-bit signed Motorola field starting at bit 3 (STEER_ANGLE): bytes 0..2 = 0x0F 0xFF -> -1
-        let f = Field { start_bit: 3, size: 12, big_endian: true, signed: true, factor: 1.5, offset: 0.0 };
+        let f = Field::new(3, 12, true, true, 1.5, 0.0);
         assert_eq!(f.raw(&[0x0F, 0xFF, 0, 0, 0, 0, 0, 0]), Some(-1));
         assert_eq!(f.physical(&[0x00, 0x01, 0, 0, 0, 0, 0, 0]), Some(1.5));
         // 16-bit unsigned Motorola SPEED at 47: bytes 5..6
-        let s = Field { start_bit: 47, size: 16, big_endian: true, signed: false, factor: 0.01, offset: 0.0 };
+        let s = Field::new(47, 16, true, false, 0.01, 0.0);
         assert_eq!(s.raw(&[0, 0, 0, 0, 0, 0x12, 0x34, 0]), Some(0x1234));
-        let le = Field { start_bit: 4, size: 8, big_endian: false, signed: false, factor: 1.0, offset: 0.0 };
+        let le = Field::new(4, 8, false, false, 1.0, 0.0);
         assert_eq!(le.raw(&[0xA0, 0x0B]), Some(0xBA));
         assert_eq!(s.raw(&[0, 0]), None, "short frame");
     }

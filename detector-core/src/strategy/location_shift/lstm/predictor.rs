@@ -28,6 +28,14 @@ impl<'a> LstmPredictor<'a, IntKernel> {
         }
         Ok(LstmPredictor { model, kernel: IntKernel::default(), inputs: LstmInputs::default() })
     }
+
+    /// The integer kernel on the reference dot product (benchmarks and parity tests: the same
+    /// outputs, bit for bit, as [`LstmPredictor::int`]).
+    pub fn int_portable(model: LstmModel<'a>) -> Result<Self, LstmError> {
+        let mut p = Self::int(model)?;
+        p.kernel = IntKernel::portable();
+        Ok(p)
+    }
 }
 
 impl<'a> LstmPredictor<'a, RefKernel> {
