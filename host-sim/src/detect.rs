@@ -165,6 +165,17 @@ pub fn verdict_line(v: &Verdict) -> String {
     l
 }
 
+/// The verdict digest of a run (the board's FNV-1a over every verdict's bits, as `host-sim
+/// digest` and the QEMU run compute it), 16 hex digits: two routes to the same drive can be
+/// compared by it.
+pub fn digest_hex(verdicts: &[Verdict]) -> String {
+    let mut d = gnss_guard_board::pipeline::Digest::default();
+    for v in verdicts {
+        d.add(v);
+    }
+    format!("{:016x}", d.0)
+}
+
 /// Per-drive summary of a detection run.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Summary {

@@ -80,7 +80,8 @@ enum Cmd {
     Detect {
         path: PathBuf,
         /// JSON lines: one per epoch, {"status": ...} once a second (the firmware's status frame),
-        /// then {"summary": ..., "status": ..., "status_seconds": ...}.
+        /// then {"summary": ..., "status": ..., "status_seconds": ..., "digest": ...} (the verdict
+        /// digest that `host-sim digest` and the QEMU run compute, over this run's verdicts).
         #[arg(long)]
         json: bool,
         /// Receiver profile (default: from the drive's fix rate).
@@ -398,8 +399,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 for (_, s) in next_status {
                     writeln!(out, "{}", serde_json::json!({ "status": s }))?;
                 }
-                writeln!(out, "{}", serde_json::json!({ "summary": summary, "status": last_status, "status_seconds": detect::state_seconds(&status) }))?;
+                writeln!(out, "{}", serde_json::json!({ "summary": summary, "status": last_status, "status_seconds": detect::state_seconds(&status), "digest": detect::digest_hex(&verdicts) }))?;
             } else {
+                writeln!(out, "verdict digest: {}", detect::digest_hex(&verdicts))?;
                 writeln!(out, "summary: {}", serde_json::to_string_pretty(&summary)?)?;
                 writeln!(out, "status at the end: {}", last_status.map_or("none".into(), |s| s.to_string()))?;
                 writeln!(out, "status seconds per state: {:?}", detect::state_seconds(&status))?;

@@ -21,7 +21,11 @@ fn detect_with_status(path: &std::path::Path) -> (Vec<serde_json::Value>, serde_
     assert!(out.status.success(), "{}: {}", path.display(), String::from_utf8_lossy(&out.stderr));
     let mut lines: Vec<serde_json::Value> =
         String::from_utf8(out.stdout).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-    let summary = lines.pop().unwrap()["summary"].clone();
+    let last = lines.pop().unwrap();
+    let summary = last["summary"].clone();
+    // The verdict digest, comparable with `host-sim digest` and the QEMU run's.
+    let digest = last["digest"].as_str().unwrap_or_default();
+    assert!(digest.len() == 16 && digest.chars().all(|c| c.is_ascii_hexdigit()), "digest {digest:?}");
     let status = lines.iter().filter_map(|l| l.get("status").cloned()).collect();
     lines.retain(|l| l.get("status").is_none());
     (lines, summary, status)
@@ -124,4 +128,9 @@ fn detect_text_output_has_a_summary() {
     assert!(out.status.success());
     let s = String::from_utf8(out.stdout).unwrap();
     assert!(s.contains("summary:") && s.contains("shift") && s.contains("thr"), "{}", &s[..200.min(s.len())]);
+    // The same run in JSON gives the same verdict digest.
+    let text_digest = s.lines().find_map(|l| l.strip_prefix("verdict digest: ")).expect("a digest line").to_string();
+    let out = host_sim(&["detect", "--json", d.join("drives/comma2k19/b0c9d2329ad1606b_2018-08-02--08-34-47_seg40.csv").to_str().unwrap()]);
+    let last: serde_json::Value = serde_json::from_str(String::from_utf8(out.stdout).unwrap().lines().last().unwrap()).unwrap();
+    assert_eq!(last["digest"], text_digest.as_str());
 }
