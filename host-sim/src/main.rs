@@ -8,7 +8,7 @@ use detector_core::sync::SyncConfig;
 use host_sim::attack::{self, AttackKind};
 use host_sim::dataset::Drive;
 use host_sim::input::{self, HddUnits, InputError, LoadOptions};
-use host_sim::{bench, detect, eval, inspect, replay, sim};
+use host_sim::{bench, detect, eval, inspect, output, replay, sim};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -78,7 +78,23 @@ enum Cmd {
     },
     /// Run the detector over one drive: per-epoch verdicts, then a summary.
     Detect {
-        path: PathBuf,
+        /// A drive in one of the research layouts (or give --can, --gnss, --dbc and --map).
+        #[arg(required_unless_present = "can")]
+        path: Option<PathBuf>,
+        /// Your own car: a SocketCAN candump log (`candump -l`), with --gnss, --dbc and --map.
+        #[arg(long, requires_all = ["gnss", "dbc", "map"], conflicts_with = "path")]
+        can: Option<PathBuf>,
+        /// The GNSS log: NMEA sentences, one per line, optionally after a host timestamp on the
+        /// CAN log's clock.
+        #[arg(long, requires = "can")]
+        gnss: Option<PathBuf>,
+        /// The car's DBC file (any opendbc DBC).
+        #[arg(long, requires = "can")]
+        dbc: Option<PathBuf>,
+        /// The map file: DBC signal -> detector signal, unit factor, bus (see
+        /// firmware/board/profiles/toyota_rav4.map).
+        #[arg(long, requires = "can")]
+        map: Option<PathBuf>,
         /// JSON lines: one per epoch, {"status": ...} once a second (the firmware's status frame),
         /// then {"summary": ..., "status": ..., "status_seconds": ..., "digest": ...} (the verdict
         /// digest that `host-sim digest` and the QEMU run compute, over this run's verdicts).
@@ -92,6 +108,14 @@ enum Cmd {
         predictor: detect::PredictorKind,
         #[command(flatten)]
         load: LoadArgs,
+    },
+    /// Re-express a comma2k19 segment as the logs of one's own car: `can.log` (candump, its raw
+    /// CAN frames) and `gnss.nmea` (its fixes as NMEA with host timestamps), for `detect --can`.
+    ExportLogs {
+        /// The segment folder (with processed_log/).
+        segment: PathBuf,
+        #[arg(short, long)]
+        out: PathBuf,
     },
     /// Write an attacked copy of a drive in the common CSV layout, plus an `attack_active` column.
     Attack {
@@ -365,12 +389,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Cmd::Detect { path, json, profile, predictor, load } => {
-            let files = expand(std::slice::from_ref(&path))?;
-            if files.len() != 1 {
-                anyhow::bail!(InputError::file(&path, format!("expected one drive, found {} inside", files.len())));
-            }
-            let r = input::load(&files[0], &load.options())?;
+        Cmd::Detect { path, can, gnss, dbc, map, json, profile, predictor, load } => {
+            let r = match (path, can, gnss, dbc, map) {
+                (_, Some(can), Some(gnss), Some(dbc), Some(map)) => {
+                    let read = |p: &PathBuf| std::fs::read_to_string(p).map_err(|e| InputError::file(p, format!("cannot read as text: {e}")));
+                    let profile = gnss_guard_profile::load::load(&read(&dbc)?, &read(&map)?).map_err(|e| InputError::file(&map, e.to_string()))?;
+                    input::logs::load(&can, &gnss, &profile, &load.options())?
+                }
+                (Some(path), ..) => {
+                    let files = expand(std::slice::from_ref(&path))?;
+                    if files.len() != 1 {
+                        anyhow::bail!(InputError::file(&path, format!("expected one drive, found {} inside", files.len())));
+                    }
+                    input::load(&files[0], &load.options())?
+                }
+                _ => anyhow::bail!("give a drive, or --can, --gnss, --dbc and --map"),
+            };
             let (samples, _) = replay::synchronize(&r, load.sync());
             let p = match profile.as_deref() {
                 Some("ublox-10hz") => &detector_core::profile::UBLOX_10HZ,
@@ -405,6 +439,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 writeln!(out, "summary: {}", serde_json::to_string_pretty(&summary)?)?;
                 writeln!(out, "status at the end: {}", last_status.map_or("none".into(), |s| s.to_string()))?;
                 writeln!(out, "status seconds per state: {:?}", detect::state_seconds(&status))?;
+            }
+            Ok(())
+        }
+        Cmd::ExportLogs { segment, out } => {
+            let (can, nmea) = input::logs::comma2k19_as_logs(&segment)?;
+            std::fs::create_dir_all(&out).map_err(|e| InputError::file(&out, format!("cannot create: {e}")))?;
+            for (name, text) in [("can.log", &can), ("gnss.nmea", &nmea)] {
+                let p = out.join(name);
+                output::write_atomic(&p, |w| w.write_all(text.as_bytes())).map_err(|e| InputError::file(&p, format!("cannot write: {e}")))?;
+                outln!("wrote {} ({} lines)", p.display(), text.lines().count());
             }
             Ok(())
         }

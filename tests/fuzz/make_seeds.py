@@ -4,7 +4,7 @@ seed takes the first lines of the committed HDD test fixture."""
 import struct, random, os
 random.seed(1)
 os.chdir(os.path.dirname(os.path.abspath(__file__)))
-for t in "nmea can drive_csv openxc hdd comma2k19 template_blob replay_input detector dsp".split():
+for t in "nmea can drive_csv openxc hdd comma2k19 template_blob replay_input detector dsp logs".split():
     os.makedirs("seeds/" + t, exist_ok=True)
 def ck(b):
     c = 0
@@ -66,3 +66,7 @@ open("seeds/detector/random", "wb").write(bytes(random.randrange(256) for _ in r
 # dsp: a shape byte, activations, weights; extremes (0x80 weights, i16::MIN activations) too.
 open("seeds/dsp/random", "wb").write(bytes(random.randrange(256) for _ in range(1 + 96 + 600)))
 open("seeds/dsp/extremes", "wb").write(bytes([47]) + b"\x00\x80" * 48 + b"\x80" * 600)
+# logs: a few candump lines of the RAV4 ids (standard, extended, remote, FD), 0xFF, NMEA with host timestamps.
+can_lines = "(1.000000) can0 0B4#0000000000123400\n(1.010000) can0 025#0FFF000000000000\n(1.020000) can1 18FEF100#0102\n(1.030000) can0 123#R\n(1.040000) can0 224##1" + "00" * 12 + "\n"
+gnss_lines = "".join("(%.6f) %s\n" % (1.0 + k * 0.1, s) for k in range(5) for s in nmea(48.137 + k * 1e-5, 11.575, 10.0, 90.0, 3600 + k * 0.1).split("\r\n") if s)
+open("seeds/logs/rav4", "wb").write(can_lines.encode() + b"\xff" + gnss_lines.encode())

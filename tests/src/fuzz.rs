@@ -251,6 +251,33 @@ fn lstm_parity(data: &[u8]) {
     }
 }
 
+/// One's own car's logs (issue #17): a candump log and an NMEA log (the input split at its first
+/// 0xFF byte), strict and skipping bad lines, decoded through the RAV4 profile at run time and
+/// synchronised.
+pub fn logs(data: &[u8]) {
+    use host_sim::input::{logs, LoadOptions, Replay, Format};
+    let cut = data.iter().position(|&b| b == 0xFF).unwrap_or(data.len());
+    let can = String::from_utf8_lossy(&data[..cut]);
+    let gnss = String::from_utf8_lossy(data.get(cut + 1..).unwrap_or(&[]));
+    let _ = logs::looks_like_candump(&can);
+    let _ = logs::looks_like_nmea(&gnss);
+    let profile = gnss_guard_profile::load::load(
+        include_str!("../../firmware/board/profiles/toyota_rav4.dbc"),
+        include_str!("../../firmware/board/profiles/toyota_rav4.map"),
+    )
+    .expect("the RAV4 profile loads");
+    for skip in [false, true] {
+        let opts = LoadOptions { skip_bad_rows: skip, ..LoadOptions::default() };
+        let frames = logs::candump_from_text(Path::new("fuzz.log"), &can, &opts).map(|(f, _)| f).unwrap_or_default();
+        let fixes = logs::nmea_log_from_text(Path::new("fuzz.nmea"), &gnss, &opts).map(|(f, _)| f).unwrap_or_default();
+        for f in &frames {
+            let _ = logs::parse_candump_line(&f.candump_line()).expect("a written frame line parses");
+        }
+        let r = Replay::new(Path::new("fuzz"), Format::Logs, logs::events_of(&frames, fixes, &profile), 0);
+        let _ = host_sim::replay::synchronize(&r, SyncConfig::default());
+    }
+}
+
 /// The QEMU/digest replay input parser and runner.
 pub fn replay_input(data: &[u8]) {
     use gnss_guard_board::replay;
@@ -347,7 +374,7 @@ pub fn long_horizon(data: &[u8]) {
 pub type Harness = fn(&[u8]);
 
 /// All harnesses by name (the fuzz targets and the corpus replay use the same names).
-pub const TARGETS: [(&str, Harness); 12] = [
+pub const TARGETS: [(&str, Harness); 13] = [
     ("nmea", nmea),
     ("can", can),
     ("drive_csv", drive_csv),
@@ -357,6 +384,7 @@ pub const TARGETS: [(&str, Harness); 12] = [
     ("template_blob", template_blob),
     ("lstm_blob", lstm_blob),
     ("dsp", dsp),
+    ("logs", logs),
     ("replay_input", replay_input),
     ("detector", detector),
     ("long_horizon", long_horizon),

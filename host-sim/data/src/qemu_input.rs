@@ -28,29 +28,8 @@ pub const SCENARIOS: [(&str, Setup); 5] = [
     ("gnss-outage", Setup::Outage(30.0, 45.0)),
 ];
 
-fn checksum(body: &str) -> u8 {
-    body.bytes().fold(0, |c, b| c ^ b)
-}
-
-fn dm(deg: f64, pos: char, neg: char, width: usize) -> (String, char) {
-    let a = deg.abs();
-    let d = a.floor();
-    let m = (a - d) * 60.0;
-    (format!("{:0width$}{:09.6}", d as u32, m, width = width), if deg >= 0.0 { pos } else { neg })
-}
-
-/// GGA and RMC sentences for a fix (time of day from seconds since start).
-pub fn nmea(f: &Fix, secs: f64) -> [String; 2] {
-    let tod = secs.rem_euclid(86_400.0);
-    let hms = format!("{:02}{:02}{:05.2}", (tod / 3600.0) as u32, ((tod % 3600.0) / 60.0) as u32, tod % 60.0);
-    let (la, ns) = dm(f.pos.lat_deg, 'N', 'S', 2);
-    let (lo, ew) = dm(f.pos.lon_deg, 'E', 'W', 3);
-    let gga = format!("GPGGA,{hms},{la},{ns},{lo},{ew},1,12,0.8,10.0,M,0.0,M,,");
-    let spd = f.speed_mps.map_or(String::new(), |v| format!("{:.3}", v / 0.514_444));
-    let crs = f.course_deg.map_or(String::new(), |c| format!("{:.2}", c));
-    let rmc = format!("GPRMC,{hms},A,{la},{ns},{lo},{ew},{spd},{crs},020818,,,A");
-    [gga, rmc].map(|b| format!("${b}*{:02X}", checksum(&b)))
-}
+/// GGA and RMC sentences for a fix (the NMEA rendering lives with the log formats).
+pub use crate::input::logs::nmea_sentences as nmea;
 
 fn frames_real(seg: &Path) -> Result<Vec<(f64, u32, Vec<u8>)>, input::InputError> {
     use input::comma2k19::read_npy;

@@ -35,6 +35,8 @@ pub enum Format {
     OpenXc,
     /// A drive made by `host-sim`'s kinematic simulator (never real data).
     Simulated,
+    /// A CAN log (candump) and a GNSS log (NMEA) with a DBC and a map ([`super::logs`]).
+    Logs,
 }
 
 impl Format {
@@ -45,6 +47,7 @@ impl Format {
             Format::Comma2k19 => "comma2k19",
             Format::OpenXc => "openxc",
             Format::Simulated => "simulated",
+            Format::Logs => "can+gnss logs",
         }
     }
 }

@@ -10,6 +10,7 @@ pub mod comma2k19;
 pub mod drive;
 pub mod drive_csv;
 pub mod hdd;
+pub mod logs;
 pub mod openxc;
 
 pub use drive::{data_dir, Event, Format, HddUnits, InputError, LoadOptions, Location, Replay};
@@ -40,7 +41,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
         Some(Format::Hdd) => hdd::load(path, opts),
         Some(Format::Comma2k19) => comma2k19::load(path),
         Some(Format::OpenXc) => openxc::load(path, opts),
-        Some(Format::Simulated) | None => Err(InputError::file(
+        Some(Format::Simulated) | Some(Format::Logs) | None => Err(InputError::file(
             path,
             "not a drive: expected a .csv drive file, an OpenXC .jsonl trace, a comma2k19 segment \
              folder (with processed_log/) or an HDD session folder (with general/csv/)",

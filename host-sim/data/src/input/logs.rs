@@ -1,0 +1,373 @@
+//! A drive given as two logs from one's own car: a CAN log and a GNSS log, decoded with a DBC and
+//! a map file read at run time, aligned by their timestamps.
+//!
+//! - CAN: SocketCAN `candump` log files (`candump -l` writes them; `candump -L` prints the same
+//!   lines): `(<seconds>.<micros>) <interface> <frame>` with `<frame>` one of `123#11223344`
+//!   (standard id, three hex digits), `12345678#...` (extended id, eight), `123#R` (remote, no
+//!   data) and `123##<flags><data>` (CAN FD). Interface names ending in a number (`can0`,
+//!   `vcan1`) give the map's bus number.
+//! - GNSS: NMEA 0183 logs, one sentence per line, parsed by the firmware's own parser
+//!   (`gnss_guard_board::gnss::NmeaFixer`: a fix per valid RMC, GGA quality and VTG honoured).
+//!   Each line may start with a host timestamp, `(<seconds>)` or `<seconds>`, on the CAN log's
+//!   clock; a log without them takes each fix's time from its RMC (UTC date and time of day, as
+//!   UNIX seconds), which aligns with a CAN log only when the logging host kept UTC.
+//!
+//! Both files are recognised by their content, not their names. A malformed line is an
+//! [`InputError`] naming the file, the line and what was expected; with
+//! [`LoadOptions::skip_bad_rows`] it is counted in [`Replay::skipped_rows`] and dropped instead.
+
+use super::drive::{Event, Format, InputError, LoadOptions, Replay};
+use detector_core::sample::Fix;
+use gnss_guard_board::gnss::NmeaFixer;
+use gnss_guard_profile::load::Profile;
+use std::path::Path;
+
+/// One CAN frame of a log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CanFrame {
+    /// Seconds, the logging host's clock.
+    pub t: f64,
+    /// The interface (`can0`).
+    pub iface: String,
+    pub id: u32,
+    pub extended: bool,
+    /// Empty for a remote frame.
+    pub data: Vec<u8>,
+}
+
+impl CanFrame {
+    /// The bus number the interface name ends in (`can1` -> 1), if any.
+    pub fn bus(&self) -> Option<u8> {
+        let digits: String = self.iface.chars().rev().take_while(char::is_ascii_digit).collect::<Vec<_>>().into_iter().rev().collect();
+        digits.parse().ok()
+    }
+
+    /// The line `candump -l` writes for this frame.
+    pub fn candump_line(&self) -> String {
+        let id = if self.extended { format!("{:08X}", self.id) } else { format!("{:03X}", self.id) };
+        let data: String = self.data.iter().map(|b| format!("{b:02X}")).collect();
+        if self.data.len() > 8 {
+            format!("({:.6}) {} {id}##0{data}", self.t, self.iface)
+        } else {
+            format!("({:.6}) {} {id}#{data}", self.t, self.iface)
+        }
+    }
+}
+
+/// Is this the content of a candump log (its first non-empty line is a candump frame line)?
+pub fn looks_like_candump(text: &str) -> bool {
+    text.lines().map(str::trim).find(|l| !l.is_empty()).is_some_and(|l| parse_candump_line(l).is_ok())
+}
+
+/// Is this the content of an NMEA log (its first non-empty line holds a `$` sentence)?
+pub fn looks_like_nmea(text: &str) -> bool {
+    text.lines().map(str::trim).find(|l| !l.is_empty()).is_some_and(|l| split_nmea_line(l).is_ok_and(|(_, s)| s.starts_with('$')))
+}
+
+fn hex_byte(s: &str) -> Option<u8> {
+    (s.len() == 2).then(|| u8::from_str_radix(s, 16).ok()).flatten()
+}
+
+/// One candump log line.
+pub fn parse_candump_line(line: &str) -> Result<CanFrame, String> {
+    let mut parts = line.split_whitespace();
+    let ts = parts.next().ok_or("expected `(<seconds>) <interface> <id>#<data>`, found an empty line")?;
+    let t: f64 = ts
+        .strip_prefix('(')
+        .and_then(|s| s.strip_suffix(')'))
+        .and_then(|s| s.parse().ok())
+        .filter(|t: &f64| t.is_finite())
+        .ok_or_else(|| format!("expected a timestamp `(<seconds>.<micros>)`, found {ts:?}"))?;
+    let iface = parts.next().ok_or("expected an interface name after the timestamp")?.to_string();
+    let frame = parts.next().ok_or("expected a frame `<id>#<data>` after the interface")?;
+    // An optional trailing direction flag (`R` / `T`, newer candump) is allowed.
+    if let Some(extra) = parts.next() {
+        if !matches!(extra, "R" | "T") || parts.next().is_some() {
+            return Err(format!("unexpected text after the frame: {extra:?}"));
+        }
+    }
+    let (id_s, rest) = frame.split_once('#').ok_or_else(|| format!("expected `<id>#<data>`, found {frame:?}"))?;
+    let extended = match id_s.len() {
+        3 => false,
+        8 => true,
+        _ => return Err(format!("expected a 3-digit (standard) or 8-digit (extended) hex id, found {id_s:?}")),
+    };
+    let id = u32::from_str_radix(id_s, 16).map_err(|_| format!("expected a hex id, found {id_s:?}"))?;
+    if (!extended && id > 0x7FF) || id > 0x1FFF_FFFF {
+        return Err(format!("id {id_s} out of range for a {} frame", if extended { "29-bit" } else { "11-bit" }));
+    }
+    let (payload, max) = match rest.strip_prefix('#') {
+        // CAN FD: one hex digit of flags, then up to 64 bytes.
+        Some(fd) => {
+            let mut c = fd.chars();
+            c.next().filter(char::is_ascii_hexdigit).ok_or_else(|| format!("expected a CAN FD flags digit after `##`, found {fd:?}"))?;
+            (c.as_str(), 64)
+        }
+        None if rest.starts_with('R') => return Ok(CanFrame { t, iface, id, extended, data: Vec::new() }),
+        None => (rest, 8),
+    };
+    let hex: String = payload.chars().filter(|c| *c != '.').collect();
+    if !hex.len().is_multiple_of(2) || hex.len() / 2 > max {
+        return Err(format!("expected up to {max} data bytes as pairs of hex digits, found {payload:?}"));
+    }
+    let data = (0..hex.len() / 2)
+        .map(|i| hex_byte(&hex[2 * i..2 * i + 2]))
+        .collect::<Option<Vec<u8>>>()
+        .ok_or_else(|| format!("expected hex data bytes, found {payload:?}"))?;
+    Ok(CanFrame { t, iface, id, extended, data })
+}
+
+/// Reads a candump log. Lines are kept in file order (candump writes them in time order).
+pub fn read_candump(path: &Path, opts: &LoadOptions) -> Result<(Vec<CanFrame>, usize), InputError> {
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::file(path, format!("cannot read as text: {e}")))?;
+    candump_from_text(path, &text, opts)
+}
+
+/// [`read_candump`] on the text of `path`: the frames and the number of lines skipped.
+pub fn candump_from_text(path: &Path, text: &str, opts: &LoadOptions) -> Result<(Vec<CanFrame>, usize), InputError> {
+    let mut frames = Vec::new();
+    let mut skipped = 0;
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        match parse_candump_line(line) {
+            Ok(f) => frames.push(f),
+            Err(_) if opts.skip_bad_rows => skipped += 1,
+            Err(e) => return Err(InputError::line(path, i as u64 + 1, e)),
+        }
+    }
+    if frames.is_empty() {
+        return Err(InputError::file(path, "expected candump log lines `(<seconds>) <interface> <id>#<data>`, found none"));
+    }
+    Ok((frames, skipped))
+}
+
+/// An NMEA log line: its host timestamp, if any, and the sentence.
+fn split_nmea_line(line: &str) -> Result<(Option<f64>, &str), String> {
+    let line = line.trim();
+    let Some(dollar) = line.find('$') else {
+        return Err(format!("expected an NMEA sentence starting with `$`, found {line:?}"));
+    };
+    let (head, sentence) = line.split_at(dollar);
+    let head = head.trim();
+    if head.is_empty() {
+        return Ok((None, sentence));
+    }
+    let ts = head.strip_prefix('(').and_then(|s| s.strip_suffix(')')).unwrap_or(head);
+    let t: f64 = ts.parse().ok().filter(|t: &f64| t.is_finite()).ok_or_else(|| format!("expected a host timestamp `<seconds>` or `(<seconds>)` before the sentence, found {head:?}"))?;
+    Ok((Some(t), sentence))
+}
+
+/// Days from 1970-01-01 to a civil date (proleptic Gregorian).
+fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let doy = (153 * (m + if m > 2 { -3 } else { 9 }) + 2) / 5 + d - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    era * 146_097 + doe - 719_468
+}
+
+/// Reads an NMEA log into fixes (see the module documentation for the timestamps).
+pub fn read_nmea_log(path: &Path, opts: &LoadOptions) -> Result<(Vec<Fix>, usize), InputError> {
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::file(path, format!("cannot read as text: {e}")))?;
+    nmea_log_from_text(path, &text, opts)
+}
+
+/// [`read_nmea_log`] on the text of `path`: the fixes and the number of lines skipped.
+pub fn nmea_log_from_text(path: &Path, text: &str, opts: &LoadOptions) -> Result<(Vec<Fix>, usize), InputError> {
+    let mut fixer = NmeaFixer::default();
+    let mut fixes = Vec::new();
+    let mut skipped = 0;
+    let mut stamped: Option<bool> = None;
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i as u64 + 1;
+        if raw.trim().is_empty() {
+            continue;
+        }
+        let (ts, sentence) = match split_nmea_line(raw) {
+            Ok(x) => x,
+            Err(_) if opts.skip_bad_rows => {
+                skipped += 1;
+                continue;
+            }
+            Err(e) => return Err(InputError::line(path, line_no, e)),
+        };
+        match stamped {
+            None => stamped = Some(ts.is_some()),
+            Some(s) if s != ts.is_some() => {
+                return Err(InputError::line(path, line_no, format!(
+                    "expected every line {} a host timestamp, as the first line", if s { "with" } else { "without" })));
+            }
+            _ => {}
+        }
+        // Without host timestamps, the RMC's own UTC date and time of day.
+        let t = match ts {
+            Some(t) => t,
+            None => match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
+                Ok(gnss_guard_board::nmea::Sentence::Rmc(r)) => match (r.date, r.time_s) {
+                    (Some((d, m, y)), Some(tod)) => days_from_civil(2000 + y as i64, m as i64, d as i64) as f64 * 86_400.0 + tod,
+                    _ => return Err(InputError::line(path, line_no, "expected an RMC with a date and a time (the log has no host timestamps)")),
+                },
+                _ => f64::NAN,
+            },
+        };
+        let before = fixer.counters.rejected.saturating_add(fixer.counters.overlong);
+        let fix = fixer.line(t, sentence.as_bytes());
+        if fixer.counters.rejected.saturating_add(fixer.counters.overlong) != before {
+            if opts.skip_bad_rows {
+                skipped += 1;
+                continue;
+            }
+            let why = match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
+                Err(e) => format!("{e:?}"),
+                Ok(_) => "a position out of range".to_string(),
+            };
+            return Err(InputError::line(path, line_no, format!("expected a valid NMEA sentence, found one that fails: {why}")));
+        }
+        if let Some(f) = fix {
+            fixes.push(f);
+        }
+    }
+    if fixes.is_empty() {
+        return Err(InputError::file(path, "expected NMEA RMC sentences with a valid fix, found none"));
+    }
+    Ok((fixes, skipped))
+}
+
+/// A drive from a CAN log and a GNSS log, decoded with `profile` (a DBC and a map file).
+pub fn load(can: &Path, gnss: &Path, profile: &Profile, opts: &LoadOptions) -> Result<Replay, InputError> {
+    let can_text_head = std::fs::read_to_string(can).map_err(|e| InputError::file(can, format!("cannot read as text: {e}")))?;
+    if !looks_like_candump(&can_text_head) {
+        return Err(InputError::line(can, 1, "expected a SocketCAN candump log (`(<seconds>) can0 123#...`); Vector ASC, BLF and MF4 are not read yet"));
+    }
+    let gnss_head = std::fs::read_to_string(gnss).map_err(|e| InputError::file(gnss, format!("cannot read as text: {e}")))?;
+    if !looks_like_nmea(&gnss_head) {
+        return Err(InputError::line(gnss, 1, "expected an NMEA log (`$GPRMC,...` per line, optionally after a host timestamp); u-blox UBX logs are not read yet"));
+    }
+    let (frames, skipped_can) = candump_from_text(can, &can_text_head, opts)?;
+    let (fixes, skipped_gnss) = nmea_log_from_text(gnss, &gnss_head, opts)?;
+    Ok(Replay::new(can, Format::Logs, events_of(&frames, fixes, profile), skipped_can + skipped_gnss))
+}
+
+/// The event stream of decoded frames and fixes (fixes first, as every loader orders them).
+pub fn events_of(frames: &[CanFrame], fixes: Vec<Fix>, profile: &Profile) -> Vec<Event> {
+    let mut events: Vec<Event> = fixes.into_iter().map(Event::Fix).collect();
+    for f in frames {
+        for (sig, v) in gnss_guard_profile::decode(&profile.mappings, f.id, f.extended, f.bus(), &f.data) {
+            events.push(Event::Obs { sig, t: f.t, v });
+        }
+    }
+    events
+}
+
+fn checksum(body: &str) -> u8 {
+    body.bytes().fold(0, |c, b| c ^ b)
+}
+
+fn dm(deg: f64, pos: char, neg: char, width: usize) -> (String, char) {
+    let a = deg.abs();
+    let d = a.floor();
+    let m = (a - d) * 60.0;
+    (format!("{:0width$}{:09.6}", d as u32, m, width = width), if deg >= 0.0 { pos } else { neg })
+}
+
+/// GGA and RMC sentences for a fix (time of day from `secs`; minutes with six decimals, speed in
+/// knots with three, course with two: what the QEMU run and the exported logs carry).
+pub fn nmea_sentences(f: &Fix, secs: f64) -> [String; 2] {
+    let tod = secs.rem_euclid(86_400.0);
+    let hms = format!("{:02}{:02}{:05.2}", (tod / 3600.0) as u32, ((tod % 3600.0) / 60.0) as u32, tod % 60.0);
+    let (la, ns) = dm(f.pos.lat_deg, 'N', 'S', 2);
+    let (lo, ew) = dm(f.pos.lon_deg, 'E', 'W', 3);
+    let gga = format!("GPGGA,{hms},{la},{ns},{lo},{ew},1,12,0.8,10.0,M,0.0,M,,");
+    let spd = f.speed_mps.map_or(String::new(), |v| format!("{:.3}", v / 0.514_444));
+    let crs = f.course_deg.map_or(String::new(), |c| format!("{:.2}", c));
+    let rmc = format!("GPRMC,{hms},A,{la},{ns},{lo},{ew},{spd},{crs},020818,,,A");
+    [gga, rmc].map(|b| format!("${b}*{:02X}", checksum(&b)))
+}
+
+/// A comma2k19 segment re-expressed as the two logs of one's own car: its real raw CAN frames
+/// (every bus, as interface `can<src>`) as a candump log, and its u-blox fixes as an NMEA log
+/// (GGA + RMC per fix, rendered as the QEMU run renders them) with host timestamps on the
+/// segment's clock. Returns `(candump text, NMEA text)`.
+pub fn comma2k19_as_logs(seg: &Path) -> Result<(String, String), InputError> {
+    use super::comma2k19::read_npy;
+    let (_, t) = read_npy::<f64>(seg, "CAN/raw_can/t")?;
+    let (_, a) = read_npy::<i64>(seg, "CAN/raw_can/address")?;
+    let (_, s) = read_npy::<i64>(seg, "CAN/raw_can/src")?;
+    let (_, d) = read_npy::<Vec<u8>>(seg, "CAN/raw_can/data")?;
+    if a.len() != t.len() || s.len() != t.len() || d.len() != t.len() {
+        return Err(InputError::array(seg, "CAN/raw_can", "expected t, address, src and data of equal length"));
+    }
+    let mut can = String::new();
+    for i in 0..t.len() {
+        let (Ok(id), Ok(src)) = (u32::try_from(a[i]), u8::try_from(s[i])) else { continue };
+        if !t[i].is_finite() || id > 0x7FF || d[i].len() > 8 {
+            continue;
+        }
+        can += &CanFrame { t: t[i], iface: format!("can{src}"), id, extended: false, data: d[i].clone() }.candump_line();
+        can.push('\n');
+    }
+    let native = super::comma2k19::load(seg)?;
+    let mut nmea = String::new();
+    for f in native.fixes() {
+        for sentence in nmea_sentences(f, f.t) {
+            nmea += &format!("({:.6}) {sentence}\n", f.t);
+        }
+    }
+    Ok((can, nmea))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candump_lines_of_every_kind() {
+        let f = parse_candump_line("(1436509052.249713) can0 0B4#0000000000123400").unwrap();
+        assert_eq!((f.t, f.iface.as_str(), f.id, f.extended, f.bus()), (1436509052.249713, "can0", 0xB4, false, Some(0)));
+        assert_eq!(f.data, [0, 0, 0, 0, 0, 0x12, 0x34, 0]);
+        assert_eq!(f.candump_line(), "(1436509052.249713) can0 0B4#0000000000123400");
+        let e = parse_candump_line("(1.000000) vcan1 18FEF100#01.02.03 R").unwrap();
+        assert_eq!((e.id, e.extended, e.bus(), e.data.clone()), (0x18FE_F100, true, Some(1), vec![1, 2, 3]));
+        let r = parse_candump_line("(2.5) can0 123#R").unwrap();
+        assert!(r.data.is_empty());
+        let fd_line = format!("(3.0) can0 123##1{}", (0..12).map(|i| format!("{i:02X}")).collect::<String>());
+        let fd = parse_candump_line(&fd_line).unwrap();
+        assert_eq!(fd.data, (0..12).collect::<Vec<u8>>());
+        assert_eq!(fd.candump_line(), "(3.000000) can0 123##0000102030405060708090A0B");
+    }
+
+    #[test]
+    fn candump_errors_say_what_was_expected() {
+        for (line, want) in [
+            ("1.0 can0 123#00", "timestamp"),
+            ("(1.0) can0", "frame"),
+            ("(1.0) can0 12#00", "3-digit"),
+            ("(1.0) can0 800#00", "out of range"),
+            ("(1.0) can0 123#0", "pairs of hex"),
+            ("(1.0) can0 123#001122334455667788", "up to 8"),
+            ("(1.0) can0 123#GG", "hex data"),
+            ("(1.0) can0 123#00 X", "unexpected"),
+            ("(nan) can0 123#00", "timestamp"),
+        ] {
+            let e = parse_candump_line(line).unwrap_err();
+            assert!(e.contains(want), "{line}: {e}");
+        }
+    }
+
+    #[test]
+    fn nmea_lines_with_and_without_timestamps() {
+        assert_eq!(split_nmea_line("(12.5) $GPRMC,x").unwrap(), (Some(12.5), "$GPRMC,x"));
+        assert_eq!(split_nmea_line("12.5 $GPRMC,x").unwrap(), (Some(12.5), "$GPRMC,x"));
+        assert_eq!(split_nmea_line("$GPRMC,x").unwrap(), (None, "$GPRMC,x"));
+        assert!(split_nmea_line("GPRMC").unwrap_err().contains("starting with `$`"));
+        assert!(split_nmea_line("abc $GPRMC").unwrap_err().contains("host timestamp"));
+        // 2018-08-02 is day 17,745 since 1970-01-01.
+        assert_eq!(days_from_civil(2018, 8, 2), 17_745);
+        assert_eq!(days_from_civil(1970, 1, 1), 0);
+        assert_eq!(days_from_civil(2000, 3, 1), 11_017);
+    }
+}
