@@ -64,8 +64,8 @@ pub fn looks_like_nmea(text: &str) -> bool {
     text.lines().map(str::trim).find(|l| !l.is_empty()).is_some_and(|l| split_nmea_line(l).is_ok_and(|(_, s)| s.starts_with('$')))
 }
 
-fn hex_byte(s: &str) -> Option<u8> {
-    (s.len() == 2).then(|| u8::from_str_radix(s, 16).ok()).flatten()
+fn hex_digit(c: u8) -> Option<u8> {
+    (c as char).to_digit(16).map(|d| d as u8)
 }
 
 /// One candump log line.
@@ -106,12 +106,14 @@ pub fn parse_candump_line(line: &str) -> Result<CanFrame, String> {
         None if rest.starts_with('R') => return Ok(CanFrame { t, iface, id, extended, data: Vec::new() }),
         None => (rest, 8),
     };
-    let hex: String = payload.chars().filter(|c| *c != '.').collect();
+    // Bytes, not chars: a non-ASCII character must be an error, never a slice inside it.
+    let hex: Vec<u8> = payload.bytes().filter(|c| *c != b'.').collect();
     if !hex.len().is_multiple_of(2) || hex.len() / 2 > max {
         return Err(format!("expected up to {max} data bytes as pairs of hex digits, found {payload:?}"));
     }
-    let data = (0..hex.len() / 2)
-        .map(|i| hex_byte(&hex[2 * i..2 * i + 2]))
+    let data = hex
+        .chunks_exact(2)
+        .map(|p| Some((hex_digit(p[0])? << 4) | hex_digit(p[1])?))
         .collect::<Option<Vec<u8>>>()
         .ok_or_else(|| format!("expected hex data bytes, found {payload:?}"))?;
     Ok(CanFrame { t, iface, id, extended, data })
@@ -352,6 +354,9 @@ mod tests {
             ("(1.0) can0 123#GG", "hex data"),
             ("(1.0) can0 123#00 X", "unexpected"),
             ("(nan) can0 123#00", "timestamp"),
+            // Found by the fuzzer: a multi-byte character inside the data once panicked.
+            ("(1.0) can0 123#0\u{fffd}0", "pairs of hex"),
+            ("(1.0) can0 123#\u{e9}", "hex data"),
         ] {
             let e = parse_candump_line(line).unwrap_err();
             assert!(e.contains(want), "{line}: {e}");
