@@ -178,7 +178,7 @@ pub fn lstm_blob(data: &[u8]) {
 /// the portable reference; the integer LSTM on the optimised and portable dot products gives
 /// the same outputs on a blob whose weights are the input.
 pub fn dsp(data: &[u8]) {
-    use gnss_guard_dsp::{dsp_index, emulated, portable, Activations};
+    use gnss_guard_dsp::{emulated, portable, Activations};
     let Some((&shape, rest)) = data.split_first() else { return };
     let cols = 1 + (shape as usize % 48);
     let (v_bytes, w) = rest.split_at(rest.len().min(2 * cols));
@@ -204,15 +204,7 @@ pub fn dsp(data: &[u8]) {
     matrix::<16>(&acts, w, &v);
     matrix::<48>(&acts, w, &v);
     // The Cortex-M4 algorithm on the DSP layout.
-    let n = w0.len().min(w1.len()).min(v.len());
-    let laid: Vec<i16> = (0..n).map(|i| v[dsp_index(i, n)]).collect();
-    let groups = n / 4;
-    let (mut a0, mut a1) = emulated::dot2_groups(w0, w1, &laid, groups);
-    for i in groups * 4..n {
-        a0 += w0[i] as i8 as i32 * v[i] as i32;
-        a1 += w1[i] as i8 as i32 * v[i] as i32;
-    }
-    assert_eq!((a0, a1), portable::dot2(w0, w1, &v), "emulated Cortex-M4 kernel");
+    assert_eq!(emulated::dot2(w0, w1, &v), portable::dot2(w0, w1, &v), "emulated Cortex-M4 kernel");
     // The whole integer LSTM, both dot products, on a blob made from the input.
     lstm_parity(data);
 }

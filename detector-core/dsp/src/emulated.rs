@@ -47,12 +47,36 @@ pub fn dot2_groups(w0: &[u8], w1: &[u8], v: &[i16], groups: usize) -> (i32, i32)
     (a0, a1)
 }
 
+/// The whole Cortex-M4 `dot2` on natural-order activations: lays them out as
+/// [`crate::Activations::load`] does, runs [`dot2_groups`] over the complete groups and adds the
+/// tail in natural order, as [`crate::Activations::dot2`] does on the target. Sums over
+/// `i < min(w0.len(), w1.len(), v.len())`; must equal [`crate::portable::dot2`].
+pub fn dot2(w0: &[u8], w1: &[u8], v: &[i16]) -> (i32, i32) {
+    let n = w0.len().min(w1.len()).min(v.len());
+    let at = |i: usize| v.get(crate::dsp_index(i, n)).copied().unwrap_or(0);
+    let mut laid = [0i16; 4];
+    let (mut a0, mut a1) = (0i32, 0i32);
+    for g in 0..n / 4 {
+        for (k, x) in laid.iter_mut().enumerate() {
+            *x = at(4 * g + k);
+        }
+        let (s0, s1) = dot2_groups(w0.get(4 * g..).unwrap_or(&[]), w1.get(4 * g..).unwrap_or(&[]), &laid, 1);
+        a0 += s0;
+        a1 += s1;
+    }
+    for i in n / 4 * 4..n {
+        let x = v.get(i).map_or(0, |x| *x as i32);
+        a0 += w0.get(i).map_or(0, |w| *w as i8 as i32) * x;
+        a1 += w1.get(i).map_or(0, |w| *w as i8 as i32) * x;
+    }
+    (a0, a1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{dsp_index, portable};
+    use crate::portable;
     use proptest::prelude::*;
-    use std::vec::Vec;
 
     proptest! {
         #[test]
@@ -61,15 +85,7 @@ mod tests {
             w1 in proptest::collection::vec(any::<u8>(), 0..200),
             v in proptest::collection::vec(any::<i16>(), 0..200),
         ) {
-            let n = w0.len().min(w1.len()).min(v.len());
-            let laid: Vec<i16> = (0..n).map(|i| v[dsp_index(i, n)]).collect();
-            let groups = n / 4;
-            let (mut a0, mut a1) = dot2_groups(&w0, &w1, &laid, groups);
-            for i in groups * 4..n {
-                a0 += w0[i] as i8 as i32 * v[i] as i32;
-                a1 += w1[i] as i8 as i32 * v[i] as i32;
-            }
-            prop_assert_eq!((a0, a1), portable::dot2(&w0[..n], &w1[..n], &v[..n]));
+            prop_assert_eq!(dot2(&w0, &w1, &v), portable::dot2(&w0, &w1, &v));
         }
     }
 

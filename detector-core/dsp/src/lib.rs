@@ -143,11 +143,6 @@ impl<const N: usize> Activations<N> {
         self.v.get(j).copied().unwrap_or(0)
     }
 
-    /// The loaded activations as stored (in the DSP layout on the Cortex-M4).
-    pub fn raw(&self) -> &[i16] {
-        self.v.get(..self.len).unwrap_or(&[])
-    }
-
     /// `(sum w0[i] * v[i], sum w1[i] * v[i])` over `i < min(w0.len(), w1.len(), self.len())`,
     /// with the weights read as i8. Exact (see [`MAX_EXACT_COLS`]); the same value from every
     /// kernel.

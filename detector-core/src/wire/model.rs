@@ -188,13 +188,6 @@ impl<'a> LstmModel<'a> {
     pub fn mults_biases_i32(&self, l: &Layer) -> (&'a [u8], &'a [u8]) {
         (self.bytes.get(l.mult..l.mult + 4 * l.rows).unwrap_or(&[]), self.bytes.get(l.bias..l.bias + 4 * l.rows).unwrap_or(&[]))
     }
-    /// Row `r`'s multiplier (real scale x 2^MULT_SHIFT) and bias (Q4.12) of an int8 layer.
-    pub fn mult_i32(&self, l: &Layer, r: usize) -> i32 {
-        i32_at(self.bytes, l.mult + 4 * r)
-    }
-    pub fn bias_i32(&self, l: &Layer, r: usize) -> i32 {
-        i32_at(self.bytes, l.bias + 4 * r)
-    }
 
     /// Weight `(r, c)` of layer `l` as f32 (dequantised for int8 blobs), and the row's bias.
     pub fn w_f32(&self, l: &Layer, r: usize, c: usize) -> f32 {

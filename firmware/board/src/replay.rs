@@ -228,8 +228,10 @@ pub fn run<'t>(
 }
 
 /// [`run`], telling `w` where each stage of the pipeline ends (the QEMU run's breakdown).
+/// Generic, so that [`run`]'s [`NoStopwatch`] compiles to nothing and the measured cost per
+/// epoch is the shipped code's.
 #[allow(clippy::too_many_arguments)]
-pub fn run_timed<'t>(
+pub fn run_timed<'t, W: Stopwatch + ?Sized>(
     input: &Input,
     i: usize,
     cfg: Config,
@@ -237,7 +239,7 @@ pub fn run_timed<'t>(
     predictor: &Predictor<'t>,
     clock: &mut dyn FnMut() -> u32,
     cost: &mut dyn FnMut(u32),
-    w: &mut dyn Stopwatch,
+    w: &mut W,
 ) -> Result<Outcome, InputError> {
     let sc = input.scenario(i)?;
     let mut fresh = predictor.clone();
