@@ -81,11 +81,12 @@ enum Cmd {
         /// A drive in one of the research layouts (or give --can, --gnss, --dbc and --map).
         #[arg(required_unless_present = "can")]
         path: Option<PathBuf>,
-        /// Your own car: a SocketCAN candump log (`candump -l`), with --gnss, --dbc and --map.
+        /// Your own car: a CAN log, SocketCAN candump (`candump -l`) or Vector ASC, with --gnss,
+        /// --dbc and --map.
         #[arg(long, requires_all = ["gnss", "dbc", "map"], conflicts_with = "path")]
         can: Option<PathBuf>,
         /// The GNSS log: NMEA sentences, one per line, optionally after a host timestamp on the
-        /// CAN log's clock.
+        /// CAN log's clock; or a u-blox UBX binary log (fixes at their UTC time).
         #[arg(long, requires = "can")]
         gnss: Option<PathBuf>,
         /// The car's DBC file (any opendbc DBC).
@@ -109,8 +110,9 @@ enum Cmd {
         #[command(flatten)]
         load: LoadArgs,
     },
-    /// Re-express a comma2k19 segment as the logs of one's own car: `can.log` (candump, its raw
-    /// CAN frames) and `gnss.nmea` (its fixes as NMEA with host timestamps), for `detect --can`.
+    /// Re-express a comma2k19 segment as the logs of one's own car, on one UTC clock: `can.log`
+    /// (candump) and `can.asc` (Vector ASC) of its raw CAN frames, `gnss.nmea` (its fixes as NMEA
+    /// with host timestamps) and `gnss.ubx` (as u-blox NAV-PVT + NAV-STATUS), for `detect --can`.
     ExportLogs {
         /// The segment folder (with processed_log/).
         segment: PathBuf,
@@ -443,12 +445,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Cmd::ExportLogs { segment, out } => {
-            let (can, nmea) = input::logs::comma2k19_as_logs(&segment)?;
+            let logs = input::logs::comma2k19_as_logs(&segment)?;
             std::fs::create_dir_all(&out).map_err(|e| InputError::file(&out, format!("cannot create: {e}")))?;
-            for (name, text) in [("can.log", &can), ("gnss.nmea", &nmea)] {
+            outln!("clock: UTC = segment time + {:.3} s (the first u-blox fix's UTC time)", logs.offset_s);
+            for (name, bytes, what) in [
+                ("can.log", logs.candump.as_bytes(), "candump lines"),
+                ("can.asc", logs.asc.as_bytes(), "ASC lines"),
+                ("gnss.nmea", logs.nmea.as_bytes(), "NMEA lines"),
+                ("gnss.ubx", &logs.ubx[..], "bytes of UBX"),
+            ] {
                 let p = out.join(name);
-                output::write_atomic(&p, |w| w.write_all(text.as_bytes())).map_err(|e| InputError::file(&p, format!("cannot write: {e}")))?;
-                outln!("wrote {} ({} lines)", p.display(), text.lines().count());
+                output::write_atomic(&p, |w| w.write_all(bytes)).map_err(|e| InputError::file(&p, format!("cannot write: {e}")))?;
+                let n = if name.ends_with(".ubx") { bytes.len() } else { bytes.iter().filter(|b| **b == b'\n').count() };
+                outln!("wrote {} ({n} {what})", p.display());
             }
             Ok(())
         }

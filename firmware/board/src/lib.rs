@@ -4,6 +4,8 @@
 //! - [`can`]: CAN frame decoding generated at build time from the vehicle profile's DBC;
 //! - [`nmea`]: the NMEA 0183 wire format (RMC, GGA, VTG, GST), panic-free;
 //! - [`gnss`]: NMEA sentences to receiver fixes, and the UART line splitter;
+//! - [`ubx`]: the u-blox UBX wire format (NAV-PVT, NAV-STATUS), UBX and NMEA told apart on one
+//!   UART, frames to fixes and the receiver's own spoofing state;
 //! - [`pipeline`]: frames and sentences -> `detector_core` synchroniser -> detector -> verdicts,
 //!   with a digest of the verdict stream;
 //! - [`health`]: the status frames, the watchdog gate and the alarm outbox;
@@ -17,3 +19,4 @@ pub mod health;
 pub mod nmea;
 pub mod pipeline;
 pub mod replay;
+pub mod ubx;

@@ -5,12 +5,15 @@
 //!   lines): `(<seconds>.<micros>) <interface> <frame>` with `<frame>` one of `123#11223344`
 //!   (standard id, three hex digits), `12345678#...` (extended id, eight), `123#R` (remote, no
 //!   data) and `123##<flags><data>` (CAN FD). Interface names ending in a number (`can0`,
-//!   `vcan1`) give the map's bus number.
+//!   `vcan1`) give the map's bus number. Or a Vector ASC log ([`super::asc`]; channel N is bus
+//!   N - 1). BLF and MF4 are not read (README: no well-kept Rust reader of either was found).
 //! - GNSS: NMEA 0183 logs, one sentence per line, parsed by the firmware's own parser
 //!   (`gnss_guard_board::gnss::NmeaFixer`: a fix per valid RMC, GGA quality and VTG honoured).
 //!   Each line may start with a host timestamp, `(<seconds>)` or `<seconds>`, on the CAN log's
 //!   clock; a log without them takes each fix's time from its RMC (UTC date and time of day, as
-//!   UNIX seconds), which aligns with a CAN log only when the logging host kept UTC.
+//!   UNIX seconds), which aligns with a CAN log only when the logging host kept UTC. Or a u-blox
+//!   UBX binary log ([`super::ubx_log`]): each fix at its NAV-PVT's UTC time, so the CAN log's
+//!   host must have kept UTC (candump's timestamps are the host's clock).
 //!
 //! Both files are recognised by their content, not their names. A malformed line is an
 //! [`InputError`] naming the file, the line and what was expected; with
@@ -19,6 +22,7 @@
 use super::drive::{Event, Format, InputError, LoadOptions, Replay};
 use detector_core::sample::Fix;
 use gnss_guard_board::gnss::NmeaFixer;
+use gnss_guard_board::ubx::days_from_civil;
 use gnss_guard_profile::load::Profile;
 use std::path::Path;
 
@@ -44,14 +48,22 @@ impl CanFrame {
 
     /// The line `candump -l` writes for this frame.
     pub fn candump_line(&self) -> String {
+        let us = micros_of(self.t);
         let id = if self.extended { format!("{:08X}", self.id) } else { format!("{:03X}", self.id) };
         let data: String = self.data.iter().map(|b| format!("{b:02X}")).collect();
+        let ts = format!("({}.{:06})", us.div_euclid(1_000_000), us.rem_euclid(1_000_000));
         if self.data.len() > 8 {
-            format!("({:.6}) {} {id}##0{data}", self.t, self.iface)
+            format!("{ts} {} {id}##0{data}", self.iface)
         } else {
-            format!("({:.6}) {} {id}#{data}", self.t, self.iface)
+            format!("{ts} {} {id}#{data}", self.iface)
         }
     }
+}
+
+/// Seconds as the whole microseconds a log line prints (`{:.6}`, correctly rounded). Every log
+/// writer goes through this, so the candump and ASC logs of a frame carry the same microsecond.
+pub fn micros_of(t: f64) -> i64 {
+    format!("{t:.6}").replace('.', "").parse().unwrap_or(0)
 }
 
 /// Is this the content of a candump log (its first non-empty line is a candump frame line)?
@@ -162,16 +174,6 @@ fn split_nmea_line(line: &str) -> Result<(Option<f64>, &str), String> {
     Ok((Some(t), sentence))
 }
 
-/// Days from 1970-01-01 to a civil date (proleptic Gregorian).
-fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
-    let y = if m <= 2 { y - 1 } else { y };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let doy = (153 * (m + if m > 2 { -3 } else { 9 }) + 2) / 5 + d - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    era * 146_097 + doe - 719_468
-}
-
 /// Reads an NMEA log into fixes (see the module documentation for the timestamps).
 pub fn read_nmea_log(path: &Path, opts: &LoadOptions) -> Result<(Vec<Fix>, usize), InputError> {
     let text = std::fs::read_to_string(path).map_err(|e| InputError::file(path, format!("cannot read as text: {e}")))?;
@@ -239,19 +241,43 @@ pub fn nmea_log_from_text(path: &Path, text: &str, opts: &LoadOptions) -> Result
     Ok((fixes, skipped))
 }
 
+/// Reads a CAN log, recognised by its content: candump or Vector ASC.
+pub fn read_can_log(can: &Path, opts: &LoadOptions) -> Result<(Vec<CanFrame>, usize), InputError> {
+    let bytes = std::fs::read(can).map_err(|e| InputError::file(can, format!("cannot read: {e}")))?;
+    let text = String::from_utf8_lossy(&bytes);
+    if looks_like_candump(&text) {
+        candump_from_text(can, &text, opts)
+    } else if super::asc::looks_like_asc(&text) {
+        super::asc::asc_from_text(can, &text, opts)
+    } else {
+        Err(InputError::line(can, 1, "expected a SocketCAN candump log (`(<seconds>) can0 123#...`) or a Vector ASC log (`date ...` first); BLF and MF4 are not read"))
+    }
+}
+
+/// Reads a GNSS log, recognised by its content: u-blox UBX or NMEA. The fixes, the lines or
+/// frames skipped, and what the log said beyond its fixes (for the replay's notes).
+pub fn read_gnss_log(gnss: &Path, opts: &LoadOptions) -> Result<(Vec<Fix>, usize, Vec<String>), InputError> {
+    let bytes = std::fs::read(gnss).map_err(|e| InputError::file(gnss, format!("cannot read: {e}")))?;
+    if super::ubx_log::looks_like_ubx(&bytes) {
+        let (log, skipped) = super::ubx_log::ubx_log_from_bytes(gnss, &bytes, opts)?;
+        let note = log.note();
+        return Ok((log.fixes, skipped, vec![note]));
+    }
+    let text = String::from_utf8_lossy(&bytes);
+    if !looks_like_nmea(&text) {
+        return Err(InputError::line(gnss, 1, "expected an NMEA log (`$GPRMC,...` per line, optionally after a host timestamp) or a u-blox UBX log (frames starting B5 62)"));
+    }
+    let (fixes, skipped) = nmea_log_from_text(gnss, &text, opts)?;
+    Ok((fixes, skipped, Vec::new()))
+}
+
 /// A drive from a CAN log and a GNSS log, decoded with `profile` (a DBC and a map file).
 pub fn load(can: &Path, gnss: &Path, profile: &Profile, opts: &LoadOptions) -> Result<Replay, InputError> {
-    let can_text_head = std::fs::read_to_string(can).map_err(|e| InputError::file(can, format!("cannot read as text: {e}")))?;
-    if !looks_like_candump(&can_text_head) {
-        return Err(InputError::line(can, 1, "expected a SocketCAN candump log (`(<seconds>) can0 123#...`); Vector ASC, BLF and MF4 are not read yet"));
-    }
-    let gnss_head = std::fs::read_to_string(gnss).map_err(|e| InputError::file(gnss, format!("cannot read as text: {e}")))?;
-    if !looks_like_nmea(&gnss_head) {
-        return Err(InputError::line(gnss, 1, "expected an NMEA log (`$GPRMC,...` per line, optionally after a host timestamp); u-blox UBX logs are not read yet"));
-    }
-    let (frames, skipped_can) = candump_from_text(can, &can_text_head, opts)?;
-    let (fixes, skipped_gnss) = nmea_log_from_text(gnss, &gnss_head, opts)?;
-    Ok(Replay::new(can, Format::Logs, events_of(&frames, fixes, profile), skipped_can + skipped_gnss))
+    let (frames, skipped_can) = read_can_log(can, opts)?;
+    let (fixes, skipped_gnss, notes) = read_gnss_log(gnss, opts)?;
+    let mut r = Replay::new(can, Format::Logs, events_of(&frames, fixes, profile), skipped_can + skipped_gnss);
+    r.notes = notes;
+    Ok(r)
 }
 
 /// The event stream of decoded frames and fixes (fixes first, as every loader orders them).
@@ -277,8 +303,20 @@ fn dm(deg: f64, pos: char, neg: char, width: usize) -> (String, char) {
 }
 
 /// GGA and RMC sentences for a fix (time of day from `secs`; minutes with six decimals, speed in
-/// knots with three, course with two: what the QEMU run and the exported logs carry).
+/// knots with three, course with two: what the QEMU run carries). The RMC's date is fixed
+/// (2018-08-02): the QEMU run's clock is not UTC.
 pub fn nmea_sentences(f: &Fix, secs: f64) -> [String; 2] {
+    sentences_dated(f, secs, "020818")
+}
+
+/// [`nmea_sentences`] for a fix at UNIX time `unix_s`: the RMC carries its real UTC date, so the
+/// log reads back without host timestamps too.
+pub fn nmea_sentences_utc(f: &Fix, unix_s: f64) -> [String; 2] {
+    let (y, m, d) = gnss_guard_board::ubx::civil_from_days(unix_s.div_euclid(86_400.0) as i64);
+    sentences_dated(f, unix_s, &format!("{d:02}{m:02}{:02}", y.rem_euclid(100)))
+}
+
+fn sentences_dated(f: &Fix, secs: f64, date: &str) -> [String; 2] {
     let tod = secs.rem_euclid(86_400.0);
     let hms = format!("{:02}{:02}{:05.2}", (tod / 3600.0) as u32, ((tod % 3600.0) / 60.0) as u32, tod % 60.0);
     let (la, ns) = dm(f.pos.lat_deg, 'N', 'S', 2);
@@ -286,16 +324,43 @@ pub fn nmea_sentences(f: &Fix, secs: f64) -> [String; 2] {
     let gga = format!("GPGGA,{hms},{la},{ns},{lo},{ew},1,12,0.8,10.0,M,0.0,M,,");
     let spd = f.speed_mps.map_or(String::new(), |v| format!("{:.3}", v / 0.514_444));
     let crs = f.course_deg.map_or(String::new(), |c| format!("{:.2}", c));
-    let rmc = format!("GPRMC,{hms},A,{la},{ns},{lo},{ew},{spd},{crs},020818,,,A");
+    let rmc = format!("GPRMC,{hms},A,{la},{ns},{lo},{ew},{spd},{crs},{date},,,A");
     [gga, rmc].map(|b| format!("${b}*{:02X}", checksum(&b)))
 }
 
-/// A comma2k19 segment re-expressed as the two logs of one's own car: its real raw CAN frames
-/// (every bus, as interface `can<src>`) as a candump log, and its u-blox fixes as an NMEA log
-/// (GGA + RMC per fix, rendered as the QEMU run renders them) with host timestamps on the
-/// segment's clock. Returns `(candump text, NMEA text)`.
-pub fn comma2k19_as_logs(seg: &Path) -> Result<(String, String), InputError> {
+/// A comma2k19 segment re-expressed as the logs of one's own car, all on one clock: the
+/// segment's own (seconds since the logger booted) shifted by `offset_s` onto UTC, so that a UBX
+/// log, whose fixes carry only their UTC time, aligns with the CAN logs.
+pub struct ExportedLogs {
+    /// UTC = segment time + `offset_s` (the first u-blox fix's UTC time, to the millisecond).
+    pub offset_s: f64,
+    /// The real raw CAN frames (every bus, interface `can<src>`) as a candump log.
+    pub candump: String,
+    /// The same frames as a Vector ASC log (channel = src + 1).
+    pub asc: String,
+    /// The u-blox fixes as NMEA (GGA + RMC per fix, [`nmea_sentences_utc`]) with host timestamps.
+    pub nmea: String,
+    /// The u-blox fixes as UBX (NAV-PVT + NAV-STATUS per fix; see [`super::ubx_log::ubx_stream`]).
+    pub ubx: Vec<u8>,
+}
+
+/// The segment's UTC offset: the first u-blox fix's UTC time (column 3, ms) minus its time on
+/// the segment's clock, rounded to the millisecond.
+pub fn comma2k19_utc_offset(seg: &Path) -> Result<f64, InputError> {
     use super::comma2k19::read_npy;
+    let (_, t) = read_npy::<f64>(seg, "GNSS/live_gnss_ublox/t")?;
+    let (shape, v) = read_npy::<f64>(seg, "GNSS/live_gnss_ublox/value")?;
+    let w = shape.get(1).copied().unwrap_or(0) as usize;
+    match (t.first(), v.get(3)) {
+        (Some(t0), Some(utc_ms)) if w >= 4 && utc_ms.is_finite() && t0.is_finite() => Ok((utc_ms - t0 * 1000.0).round() / 1000.0),
+        _ => Err(InputError::array(seg, "GNSS/live_gnss_ublox/value", "expected a first fix with its UTC time in column 3")),
+    }
+}
+
+/// See [`ExportedLogs`].
+pub fn comma2k19_as_logs(seg: &Path) -> Result<ExportedLogs, InputError> {
+    use super::comma2k19::read_npy;
+    let offset_s = comma2k19_utc_offset(seg)?;
     let (_, t) = read_npy::<f64>(seg, "CAN/raw_can/t")?;
     let (_, a) = read_npy::<i64>(seg, "CAN/raw_can/address")?;
     let (_, s) = read_npy::<i64>(seg, "CAN/raw_can/src")?;
@@ -303,23 +368,32 @@ pub fn comma2k19_as_logs(seg: &Path) -> Result<(String, String), InputError> {
     if a.len() != t.len() || s.len() != t.len() || d.len() != t.len() {
         return Err(InputError::array(seg, "CAN/raw_can", "expected t, address, src and data of equal length"));
     }
-    let mut can = String::new();
+    let mut frames = Vec::new();
     for i in 0..t.len() {
         let (Ok(id), Ok(src)) = (u32::try_from(a[i]), u8::try_from(s[i])) else { continue };
         if !t[i].is_finite() || id > 0x7FF || d[i].len() > 8 {
             continue;
         }
-        can += &CanFrame { t: t[i], iface: format!("can{src}"), id, extended: false, data: d[i].clone() }.candump_line();
-        can.push('\n');
+        frames.push(CanFrame { t: t[i] + offset_s, iface: format!("can{src}"), id, extended: false, data: d[i].clone() });
     }
+    let mut candump = String::new();
+    for f in &frames {
+        candump += &f.candump_line();
+        candump.push('\n');
+    }
+    let timed: Vec<(i64, &CanFrame)> = frames.iter().map(|f| (micros_of(f.t), f)).collect();
+    let asc = super::asc::asc_text(&timed);
     let native = super::comma2k19::load(seg)?;
     let mut nmea = String::new();
-    for f in native.fixes() {
-        for sentence in nmea_sentences(f, f.t) {
-            nmea += &format!("({:.6}) {sentence}\n", f.t);
+    let fixes: Vec<(f64, &Fix)> = native.fixes().map(|f| (f.t + offset_s, f)).collect();
+    for (t, f) in &fixes {
+        for sentence in nmea_sentences_utc(f, *t) {
+            let us = micros_of(*t);
+            nmea += &format!("({}.{:06}) {sentence}\n", us.div_euclid(1_000_000), us.rem_euclid(1_000_000));
         }
     }
-    Ok((can, nmea))
+    let ubx = super::ubx_log::ubx_stream(&fixes, gnss_guard_board::ubx::SpoofState::Unknown);
+    Ok(ExportedLogs { offset_s, candump, asc, nmea, ubx })
 }
 
 #[cfg(test)]
@@ -370,9 +444,5 @@ mod tests {
         assert_eq!(split_nmea_line("$GPRMC,x").unwrap(), (None, "$GPRMC,x"));
         assert!(split_nmea_line("GPRMC").unwrap_err().contains("starting with `$`"));
         assert!(split_nmea_line("abc $GPRMC").unwrap_err().contains("host timestamp"));
-        // 2018-08-02 is day 17,745 since 1970-01-01.
-        assert_eq!(days_from_civil(2018, 8, 2), 17_745);
-        assert_eq!(days_from_civil(1970, 1, 1), 0);
-        assert_eq!(days_from_civil(2000, 3, 1), 11_017);
     }
 }

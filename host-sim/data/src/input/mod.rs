@@ -5,6 +5,7 @@
 //! array) and what was expected. With [`LoadOptions::skip_bad_rows`] a bad row is counted in
 //! [`Replay::skipped_rows`] instead, and the rest of the file is kept.
 
+pub mod asc;
 pub mod can;
 pub mod comma2k19;
 pub mod drive;
@@ -12,6 +13,7 @@ pub mod drive_csv;
 pub mod hdd;
 pub mod logs;
 pub mod openxc;
+pub mod ubx_log;
 
 pub use drive::{data_dir, Event, Format, HddUnits, InputError, LoadOptions, Location, Replay};
 use std::path::{Path, PathBuf};
