@@ -221,11 +221,46 @@ pub fn summarize(verdicts: &[Verdict], profile: &ReceiverProfile) -> Summary {
 /// nothing is dropped on a bus, so the CAN counters stay 0. One line per second of drive time,
 /// through GNSS gaps too (where the device says `blind`), as `(t, json)`.
 pub fn status_lines(verdicts: &[Verdict]) -> Vec<(f64, Value)> {
-    use gnss_guard_board::health::{decode_status, Health, StatusPage, STATUS_PERIOD_S};
-    let mut h = Health::default();
+    let mut st = StatusStream::default();
     let mut out = Vec::new();
-    let emit = |h: &mut Health, t: f64, out: &mut Vec<(f64, Value)>| {
-        let Some(frames) = h.status_due(t) else { return };
+    for v in verdicts {
+        st.on_verdict(v, &mut out);
+    }
+    out
+}
+
+/// [`status_lines`] as the verdicts come (`host-sim live`): the board's health, fed epoch by
+/// epoch, and its status frames decoded.
+#[derive(Default)]
+pub struct StatusStream {
+    h: gnss_guard_board::health::Health,
+    prev_t: Option<f64>,
+}
+
+impl StatusStream {
+    /// The status lines due up to and at this verdict, appended to `out` as `(t, json)`.
+    pub fn on_verdict(&mut self, v: &Verdict, out: &mut Vec<(f64, Value)>) {
+        use gnss_guard_board::health::STATUS_PERIOD_S;
+        if !v.t.is_finite() {
+            return;
+        }
+        // Through a gap the device keeps reporting, once a period.
+        if let Some(p) = self.prev_t.filter(|p| v.t > *p) {
+            let mut t = p + STATUS_PERIOD_S;
+            while t < v.t && t < p + 86_400.0 {
+                self.emit(t, out);
+                t += STATUS_PERIOD_S;
+            }
+        }
+        self.h.on_fix(v.t);
+        self.h.on_verdict(v, v.t);
+        self.emit(v.t, out);
+        self.prev_t = Some(self.prev_t.map_or(v.t, |p| p.max(v.t)));
+    }
+
+    fn emit(&mut self, t: f64, out: &mut Vec<(f64, Value)>) {
+        use gnss_guard_board::health::{decode_status, StatusPage};
+        let Some(frames) = self.h.status_due(t) else { return };
         let mut o = json!({ "t": t });
         for (id, d) in frames {
             match decode_status(id, &d) {
@@ -252,26 +287,7 @@ pub fn status_lines(verdicts: &[Verdict]) -> Vec<(f64, Value)> {
             }
         }
         out.push((t, o));
-    };
-    let mut prev_t: Option<f64> = None;
-    for v in verdicts {
-        if !v.t.is_finite() {
-            continue;
-        }
-        // Through a gap the device keeps reporting, once a period.
-        if let Some(p) = prev_t.filter(|p| v.t > *p) {
-            let mut t = p + STATUS_PERIOD_S;
-            while t < v.t && t < p + 86_400.0 {
-                emit(&mut h, t, &mut out);
-                t += STATUS_PERIOD_S;
-            }
-        }
-        h.on_fix(v.t);
-        h.on_verdict(v, v.t);
-        emit(&mut h, v.t, &mut out);
-        prev_t = Some(prev_t.map_or(v.t, |p| p.max(v.t)));
     }
-    out
 }
 
 /// Seconds the status reported each state.

@@ -11,6 +11,7 @@
 //! - [`turns`], [`lstm`]: strategy 2's templates and strategy 1's LSTM (data; training with
 //!   the `train` feature);
 //! - [`eval`]: the evaluation (plan, run, results, statistics, report);
+//! - [`live`]: the detector on live inputs (SocketCAN, serial, stdin), JSON lines as they come;
 //! - [`bench`]: the benchmarks the command line prints.
 
 pub use gnss_data::{attack, input, qemu_input, replay, sim, tracks};
@@ -23,6 +24,7 @@ pub mod calibrate;
 pub mod turns;
 pub mod lstm;
 pub mod eval;
+pub mod live;
 pub mod bench;
 
 /// The real-data folder for a test, or `None` (with the reason printed) when it is absent.

@@ -119,6 +119,51 @@ enum Cmd {
         #[arg(short, long)]
         out: PathBuf,
     },
+    /// Run live on Linux: CAN from a SocketCAN interface or `candump -L` text (`-`: stdin), GNSS
+    /// from a serial device, a file or stdin; JSON lines as they happen (verdicts, status once a
+    /// second, the receiver's own spoofing flag when it changes), a summary with the digest at
+    /// the end of input or on Ctrl-C.
+    Live {
+        /// SocketCAN interface (`can0`), `-` (stdin, `candump -L` text) or a file/FIFO of it.
+        #[arg(long)]
+        can: String,
+        /// Serial device (`/dev/ttyACM0`, a pseudo-terminal), `-` (stdin) or a file/FIFO: the
+        /// receiver's NMEA and/or UBX bytes, or an NMEA log with host timestamps.
+        #[arg(long)]
+        gnss: String,
+        /// The car's DBC file.
+        #[arg(long)]
+        dbc: PathBuf,
+        /// The map file (see firmware/board/profiles/toyota_rav4.map).
+        #[arg(long)]
+        map: PathBuf,
+        /// Serial baud rate of --gnss.
+        #[arg(long, default_value_t = 38_400)]
+        baud: u32,
+        /// The time of a fix from the receiver's raw output: its arrival (as the firmware does)
+        /// or the receiver's own UTC time (NAV-PVT, RMC), for a host clock that keeps UTC.
+        #[arg(long, value_parser = ["arrival", "receiver"], default_value = "arrival")]
+        gnss_time: String,
+        /// Receiver profile (default: from the rate of the first --profile-epochs epochs).
+        #[arg(long, value_parser = ["ublox-10hz", "logger-1hz"])]
+        profile: Option<String>,
+        /// Epochs looked at to choose the receiver profile (their verdicts follow at once).
+        #[arg(long, default_value_t = 30)]
+        profile_epochs: usize,
+        /// Strategy 1's predictor.
+        #[arg(long, value_enum, default_value = "lstm")]
+        predictor: detect::PredictorKind,
+        /// Release an event only when both inputs have passed its time (replays: the order and
+        /// digest of `detect`); without it an event waits at most --max-wait-s.
+        #[arg(long)]
+        strict_merge: bool,
+        /// Wall-clock seconds an event waits for the other input.
+        #[arg(long, default_value_t = 0.5)]
+        max_wait_s: f64,
+        /// Largest gap, seconds, between an epoch and the observations it is interpolated from.
+        #[arg(long, default_value_t = SyncConfig::default().max_gap_s)]
+        max_gap: f64,
+    },
     /// Write an attacked copy of a drive in the common CSV layout, plus an `attack_active` column.
     Attack {
         /// turn-by-turn, overshoot, stop, wrong-turn, slow-drift, small-biased, direction, replay, jump
@@ -460,6 +505,30 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 outln!("wrote {} ({n} {what})", p.display());
             }
             Ok(())
+        }
+        Cmd::Live { can, gnss, dbc, map, baud, gnss_time, profile, profile_epochs, predictor, strict_merge, max_wait_s, max_gap } => {
+            if can == "-" && gnss == "-" {
+                anyhow::bail!("--can and --gnss cannot both read stdin");
+            }
+            if predictor == detect::PredictorKind::LstmF32 {
+                anyhow::bail!("live runs the kinematic or the integer LSTM predictor (lstm-f32 is for fidelity checks)");
+            }
+            if !(max_wait_s.is_finite() && max_wait_s >= 0.0) {
+                anyhow::bail!("--max-wait-s must be a non-negative number of seconds");
+            }
+            let read = |p: &PathBuf| std::fs::read_to_string(p).map_err(|e| InputError::file(p, format!("cannot read as text: {e}")));
+            let prof = gnss_guard_profile::load::load(&read(&dbc)?, &read(&map)?).map_err(|e| InputError::file(&map, e.to_string()))?;
+            let opts = host_sim::live::Options {
+                profile: profile.as_deref().map(|p| if p == "ublox-10hz" { &detector_core::profile::UBLOX_10HZ } else { &detector_core::profile::LOGGER_1HZ }),
+                predictor,
+                strict_merge,
+                max_wait: std::time::Duration::from_secs_f64(max_wait_s),
+                sync: SyncConfig { max_gap_s: max_gap, ..SyncConfig::default() },
+                profile_epochs,
+                receiver_time: gnss_time == "receiver",
+            };
+            let mut out = std::io::stdout().lock();
+            host_sim::live::run(host_sim::live::CanSource::parse(&can), host_sim::live::GnssSource::parse(&gnss, baud), &prof, &opts, &mut out)
         }
         Cmd::Attack { kind, params, seed, onset, path, out, load } => {
             let r = input::load(&path, &load.options())?;

@@ -57,3 +57,65 @@ pub fn python_with(packages: &[&str]) -> PathBuf {
     }
     py
 }
+
+/// The comma2k19 segment re-expressed as logs by `host-sim export-logs` in a fresh temporary
+/// folder (removed on drop), with the segment's DBC and the RAV4 map on bus 0.
+pub struct ExportedLogs {
+    pub dir: PathBuf,
+    pub seg: PathBuf,
+    pub dbc: PathBuf,
+    pub map: PathBuf,
+    /// UTC = segment time + this.
+    pub offset_s: f64,
+}
+
+impl Drop for ExportedLogs {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+impl ExportedLogs {
+    /// `None` (skipped, printed; a failure in CI) without the real data.
+    pub fn new(test: &str) -> Option<Self> {
+        let d = data_dir(test)?;
+        let seg = d.join("raw/comma2k19_rav4_seg40");
+        let dir = std::env::temp_dir().join(format!("gnss-guard-{test}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = host_sim(&["export-logs", seg.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        for f in ["can.log", "can.asc", "gnss.nmea", "gnss.ubx"] {
+            assert!(dir.join(f).is_file(), "export-logs wrote no {f}");
+        }
+        let dbc = std::fs::read_dir(&seg).unwrap().flatten().map(|e| e.path()).find(|p| p.extension().is_some_and(|x| x == "dbc")).expect("the segment's DBC");
+        // The firmware's RAV4 map, with bus 0 (comma logs forwarded copies of the frames on
+        // buses 1 and 2; the native loader reads bus 0 only).
+        let rav4 = std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware/board/profiles/toyota_rav4.map")).unwrap();
+        let map: String = rav4.lines().map(|l| if l.trim().is_empty() || l.starts_with('#') { format!("{l}\n") } else { format!("{l} bus=0\n") }).collect();
+        let map_path = dir.join("rav4_bus0.map");
+        std::fs::write(&map_path, &map).unwrap();
+        let offset_s = host_sim::input::logs::comma2k19_utc_offset(&seg).unwrap();
+        Some(ExportedLogs { dir, seg, dbc, map: map_path, offset_s })
+    }
+
+    pub fn path(&self, name: &str) -> String {
+        self.dir.join(name).to_str().unwrap().to_string()
+    }
+
+    /// `detect --json` on two of the logs: the epoch lines and the summary line.
+    pub fn detect(&self, can: &str, gnss: &str) -> (Vec<serde_json::Value>, serde_json::Value) {
+        detect_json(&["--can", &self.path(can), "--gnss", &self.path(gnss), "--dbc", self.dbc.to_str().unwrap(), "--map", self.map.to_str().unwrap()])
+    }
+}
+
+/// `host-sim detect --json <args>`: the epoch lines (status lines left out) and the last line.
+pub fn detect_json(args: &[&str]) -> (Vec<serde_json::Value>, serde_json::Value) {
+    let mut a = vec!["detect", "--json"];
+    a.extend_from_slice(args);
+    let out = host_sim(&a);
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let mut lines: Vec<serde_json::Value> = String::from_utf8(out.stdout).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let last = lines.pop().unwrap();
+    lines.retain(|l| l.get("status").is_none());
+    (lines, last)
+}

@@ -16,68 +16,22 @@
 use detector_core::sample::Fix;
 use host_sim::input::{self, logs, Event, Format, LoadOptions, Replay};
 use std::path::Path;
-use system_tests::{data_dir, host_sim};
-
-fn detect_json(args: &[&str]) -> (Vec<serde_json::Value>, serde_json::Value) {
-    let mut a = vec!["detect", "--json"];
-    a.extend_from_slice(args);
-    let out = host_sim(&a);
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
-    let mut lines: Vec<serde_json::Value> = String::from_utf8(out.stdout).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-    let last = lines.pop().unwrap();
-    lines.retain(|l| l.get("status").is_none());
-    (lines, last)
-}
+use system_tests::{detect_json, host_sim, ExportedLogs};
 
 fn micros(t: f64) -> f64 {
     logs::micros_of(t) as f64 / 1e6
-}
-
-/// The exported logs of the segment, its DBC and the RAV4 map on bus 0, in a fresh folder.
-struct Exported {
-    tmp: std::path::PathBuf,
-    seg: std::path::PathBuf,
-    dbc: std::path::PathBuf,
-    map: std::path::PathBuf,
-    offset_s: f64,
-}
-
-impl Drop for Exported {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.tmp);
-    }
-}
-
-fn export(name: &str) -> Option<Exported> {
-    let d = data_dir(name)?;
-    let seg = d.join("raw/comma2k19_rav4_seg40");
-    let tmp = std::env::temp_dir().join(format!("gnss-guard-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    let out = host_sim(&["export-logs", seg.to_str().unwrap(), "--out", tmp.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for f in ["can.log", "can.asc", "gnss.nmea", "gnss.ubx"] {
-        assert!(tmp.join(f).is_file(), "export-logs wrote no {f}");
-    }
-    let dbc = std::fs::read_dir(&seg).unwrap().flatten().map(|e| e.path()).find(|p| p.extension().is_some_and(|x| x == "dbc")).expect("the segment's DBC");
-    // The firmware's RAV4 map, with bus 0 (comma logs forwarded copies of the frames on buses 1
-    // and 2; the native loader reads bus 0 only).
-    let rav4 = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/board/profiles/toyota_rav4.map")).unwrap();
-    let map: String = rav4.lines().map(|l| if l.trim().is_empty() || l.starts_with('#') { format!("{l}\n") } else { format!("{l} bus=0\n") }).collect();
-    let map_path = tmp.join("rav4_bus0.map");
-    std::fs::write(&map_path, &map).unwrap();
-    let offset_s = logs::comma2k19_utc_offset(&seg).unwrap();
-    Some(Exported { tmp, seg, dbc, map: map_path, offset_s })
 }
 
 fn p(x: &Path) -> String {
     x.to_str().unwrap().to_string()
 }
 
-impl Exported {
-    fn detect(&self, can: &str, gnss: &str) -> (Vec<serde_json::Value>, serde_json::Value) {
-        detect_json(&["--can", &p(&self.tmp.join(can)), "--gnss", &p(&self.tmp.join(gnss)), "--dbc", &p(&self.dbc), "--map", &p(&self.map)])
-    }
+trait Checks {
+    fn assert_same_epochs(&self, via_logs: &[serde_json::Value], logs_last: &serde_json::Value);
+    fn rounded_native_digest(&self, fix_route: impl Fn(&[(f64, Fix)]) -> Vec<Fix>) -> (String, Replay);
+}
 
+impl Checks for ExportedLogs {
     /// (1) The same epochs as the native loader, at the same times (on the logs' UTC clock), with
     /// the same alarm outcome.
     fn assert_same_epochs(&self, via_logs: &[serde_json::Value], logs_last: &serde_json::Value) {
@@ -114,7 +68,7 @@ impl Exported {
 
 #[test]
 fn comma2k19_as_candump_and_nmea_gives_the_native_epochs_and_only_nmeas_rounding_differs() {
-    let Some(x) = export("comma2k19_as_candump_and_nmea_gives_the_native_epochs_and_only_nmeas_rounding_differs") else { return };
+    let Some(x) = ExportedLogs::new("comma2k19_as_candump_and_nmea_gives_the_native_epochs_and_only_nmeas_rounding_differs") else { return };
     let (via_logs, logs_last) = x.detect("can.log", "gnss.nmea");
     x.assert_same_epochs(&via_logs, &logs_last);
     // (2) The difference is exactly what the log formats cannot carry: NMEA's minutes to six
@@ -131,7 +85,7 @@ fn comma2k19_as_candump_and_nmea_gives_the_native_epochs_and_only_nmeas_rounding
 
 #[test]
 fn comma2k19_as_candump_or_asc_and_ubx_gives_the_native_epochs_and_only_ubxs_rounding_differs() {
-    let Some(x) = export("comma2k19_as_candump_or_asc_and_ubx_gives_the_native_epochs_and_only_ubxs_rounding_differs") else { return };
+    let Some(x) = ExportedLogs::new("comma2k19_as_candump_or_asc_and_ubx_gives_the_native_epochs_and_only_ubxs_rounding_differs") else { return };
     let (via_logs, logs_last) = x.detect("can.log", "gnss.ubx");
     x.assert_same_epochs(&via_logs, &logs_last);
     // (2) UBX carries 1e-7 deg, mm/s, 1e-5 deg and the UTC time to the nanosecond; the native

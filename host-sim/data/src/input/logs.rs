@@ -211,26 +211,21 @@ pub fn nmea_log_from_text(path: &Path, text: &str, opts: &LoadOptions) -> Result
         let t = match ts {
             Some(t) => t,
             None => match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
-                Ok(gnss_guard_board::nmea::Sentence::Rmc(r)) => match (r.date, r.time_s) {
-                    (Some((d, m, y)), Some(tod)) => days_from_civil(2000 + y as i64, m as i64, d as i64) as f64 * 86_400.0 + tod,
-                    _ => return Err(InputError::line(path, line_no, "expected an RMC with a date and a time (the log has no host timestamps)")),
+                Ok(gnss_guard_board::nmea::Sentence::Rmc(_)) => match rmc_utc(sentence) {
+                    Some(t) => t,
+                    None => return Err(InputError::line(path, line_no, "expected an RMC with a date and a time (the log has no host timestamps)")),
                 },
                 _ => f64::NAN,
             },
         };
-        let before = fixer.counters.rejected.saturating_add(fixer.counters.overlong);
-        let fix = fixer.line(t, sentence.as_bytes());
-        if fixer.counters.rejected.saturating_add(fixer.counters.overlong) != before {
-            if opts.skip_bad_rows {
+        let fix = match feed(&mut fixer, t, sentence) {
+            Ok(f) => f,
+            Err(_) if opts.skip_bad_rows => {
                 skipped += 1;
                 continue;
             }
-            let why = match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
-                Err(e) => format!("{e:?}"),
-                Ok(_) => "a position out of range".to_string(),
-            };
-            return Err(InputError::line(path, line_no, format!("expected a valid NMEA sentence, found one that fails: {why}")));
-        }
+            Err(e) => return Err(InputError::line(path, line_no, e)),
+        };
         if let Some(f) = fix {
             fixes.push(f);
         }
@@ -269,6 +264,40 @@ pub fn read_gnss_log(gnss: &Path, opts: &LoadOptions) -> Result<(Vec<Fix>, usize
     }
     let (fixes, skipped) = nmea_log_from_text(gnss, &text, opts)?;
     Ok((fixes, skipped, Vec::new()))
+}
+
+/// An RMC sentence's UTC date and time as UNIX seconds (`None` for other sentences, or an RMC
+/// without both).
+pub fn rmc_utc(sentence: &str) -> Option<f64> {
+    match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
+        Ok(gnss_guard_board::nmea::Sentence::Rmc(r)) => {
+            let ((d, m, y), tod) = (r.date?, r.time_s?);
+            Some(days_from_civil(2000 + y as i64, m as i64, d as i64) as f64 * 86_400.0 + tod)
+        }
+        _ => None,
+    }
+}
+
+/// One sentence through `fixer` at time `t`: a fix, nothing, or what is wrong with it.
+fn feed(fixer: &mut NmeaFixer, t: f64, sentence: &str) -> Result<Option<Fix>, String> {
+    let before = fixer.counters.rejected.saturating_add(fixer.counters.overlong);
+    let fix = fixer.line(t, sentence.as_bytes());
+    if fixer.counters.rejected.saturating_add(fixer.counters.overlong) != before {
+        let why = match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
+            Err(e) => format!("{e:?}"),
+            Ok(_) => "a position out of range".to_string(),
+        };
+        return Err(format!("expected a valid NMEA sentence, found one that fails: {why}"));
+    }
+    Ok(fix)
+}
+
+/// One line of an NMEA log with host timestamps through `fixer` (what `host-sim live` reads):
+/// a fix, nothing, or what is wrong with the line.
+pub fn nmea_line(fixer: &mut NmeaFixer, line: &str) -> Result<Option<Fix>, String> {
+    let (ts, sentence) = split_nmea_line(line)?;
+    let t = ts.ok_or("expected a host timestamp `(<seconds>)` before the sentence, as on the first line")?;
+    feed(fixer, t, sentence)
 }
 
 /// A drive from a CAN log and a GNSS log, decoded with `profile` (a DBC and a map file).
