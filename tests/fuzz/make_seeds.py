@@ -4,7 +4,7 @@ seed takes the first lines of the committed HDD test fixture."""
 import struct, random, os
 random.seed(1)
 os.chdir(os.path.dirname(os.path.abspath(__file__)))
-for t in "nmea can drive_csv openxc hdd comma2k19 template_blob replay_input detector dsp logs".split():
+for t in "nmea can drive_csv openxc hdd comma2k19 template_blob replay_input detector dsp logs asc ubx profile".split():
     os.makedirs("seeds/" + t, exist_ok=True)
 def ck(b):
     c = 0
@@ -70,3 +70,39 @@ open("seeds/dsp/extremes", "wb").write(bytes([47]) + b"\x00\x80" * 48 + b"\x80" 
 can_lines = "(1.000000) can0 0B4#0000000000123400\n(1.010000) can0 025#0FFF000000000000\n(1.020000) can1 18FEF100#0102\n(1.030000) can0 123#R\n(1.040000) can0 224##1" + "00" * 12 + "\n"
 gnss_lines = "".join("(%.6f) %s\n" % (1.0 + k * 0.1, s) for k in range(5) for s in nmea(48.137 + k * 1e-5, 11.575, 10.0, 90.0, 3600 + k * 0.1).split("\r\n") if s)
 open("seeds/logs/rav4", "wb").write(can_lines.encode() + b"\xff" + gnss_lines.encode())
+# asc: every kind of line (standard, extended, remote, CAN FD, error frame, statistics), and relative decimal time.
+open("seeds/asc/kinds", "w").write("date Thu Aug 2 08:34:47.250 am 2018\nbase hex  timestamps absolute\ninternal events logged\n"
+    "Begin Triggerblock Thu Aug 2 08:34:47.250 am 2018\n   0.000000 Start of measurement\n"
+    "   0.012345 1  0B4             Rx   d 8 00 00 00 00 00 12 34 00\n   0.020000 2  18FEF100x       Rx   d 3 01 02 03\n"
+    "   0.030000 1  123  Tx   r\n   0.035000 1  ErrorFrame\n   0.036000 1  Statistic: D 0 R 0\n"
+    "   0.040000 CANFD   1 Rx 123  Name  1 0 c 12 00 01 02 03 04 05 06 07 08 09 0a 0b\nEnd TriggerBlock\n")
+open("seeds/asc/relative", "w").write("date Thu Aug 2 20:34:47 2018\nbase dec  timestamps relative\n0.5 1 180 Rx d 1 255\n0.25 1 180 Rx d 1 1\n")
+# ubx: NAV-PVT (3D fix) + NAV-STATUS (spoofing indicated) framed, an NMEA sentence between, a long frame skipped.
+def ubx_frame(cls, mid, payload):
+    body = bytes([cls, mid]) + struct.pack("<H", len(payload)) + payload
+    a = b = 0
+    for x in body:
+        a = (a + x) & 255; b = (b + a) & 255
+    return b"\xb5\x62" + body + bytes([a, b])
+pvt = bytearray(92)
+struct.pack_into("<IHBBBBBB", pvt, 0, 123456000, 2018, 8, 2, 8, 34, 47, 7)
+struct.pack_into("<i", pvt, 16, 250000000)
+pvt[20] = 3; pvt[21] = 1; pvt[23] = 12
+struct.pack_into("<iiiiII", pvt, 24, -1224723053, 377209977, 0, 0, 1500, 2000)
+struct.pack_into("<iiIIi", pvt, 60, 7823, 214000, 300, 150000, 0)
+status = bytearray(16); status[4] = 3; status[5] = 13; status[7] = 2 << 3
+open("seeds/ubx/pvt_status", "wb").write(ubx_frame(1, 7, bytes(pvt)) + b"$GPGGA,1*00\r\n" + ubx_frame(1, 3, bytes(status)) + ubx_frame(10, 4, bytes(120)))
+# profile: a small DBC (standard, extended, multiplexed, signed, both byte orders), a map, frames.
+dbc = """VERSION ""
+
+BO_ 180 SPEED: 8 XXX
+ SG_ SPEED : 47|16@0+ (0.01,0) [0|250] "kph" XXX
+BO_ 2566844672 EXT: 8 XXX
+ SG_ YAW : 0|16@1- (0.01,0) [-300|300] "deg/s" XXX
+BO_ 37 MUXED: 8 XXX
+ SG_ MUX M : 0|8@1+ (1,0) [0|255] "" XXX
+ SG_ ANGLE m1 : 8|16@1- (0.1,0) [-600|600] "deg" XXX
+ SG_ PEDAL m2 : 8|8@1+ (0.5,0) [0|100] "%" XXX
+"""
+mp = "SPEED.SPEED wheel_speed 1/3.6\nEXT.YAW yaw_rate -1\nMUXED.ANGLE steering 1.0 bus=0\nMUXED.PEDAL pedal 1\n"
+open("seeds/profile/mixed", "wb").write(dbc.encode() + b"\xff" + mp.encode() + b"\xff" + bytes(random.randrange(256) for _ in range(90)))

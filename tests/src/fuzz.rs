@@ -270,6 +270,92 @@ pub fn logs(data: &[u8]) {
     }
 }
 
+/// Vector ASC logs (issue #17): the reader, strict and skipping bad lines; what it accepts,
+/// written again and read back, gives the same frames.
+pub fn asc(data: &[u8]) {
+    use host_sim::input::{asc, LoadOptions};
+    let text = String::from_utf8_lossy(data);
+    let _ = asc::looks_like_asc(&text);
+    for skip in [false, true] {
+        let opts = LoadOptions { skip_bad_rows: skip, ..LoadOptions::default() };
+        let Ok((frames, _)) = asc::asc_from_text(Path::new("fuzz.asc"), &text, &opts) else { continue };
+        let classic: Vec<_> = frames.iter().filter(|f| f.data.len() <= 8 && f.t.is_finite() && f.t.abs() < 1e11).collect();
+        let timed: Vec<(i64, &host_sim::input::logs::CanFrame)> = classic.iter().map(|f| (host_sim::input::logs::micros_of(f.t), *f)).collect();
+        if timed.is_empty() || timed.iter().any(|(us, _)| *us < 0) {
+            continue;
+        }
+        let back = asc::asc_from_text(Path::new("back.asc"), &asc::asc_text(&timed), &LoadOptions::default()).expect("a written ASC log reads back").0;
+        assert_eq!(back.len(), timed.len());
+        for (b, (us, f)) in back.iter().zip(&timed) {
+            assert_eq!((b.id, b.extended, &b.data, b.bus()), (f.id, f.extended, &f.data, f.bus().or(Some(0))), "a frame changed through ASC");
+            assert_eq!(host_sim::input::logs::micros_of(b.t), *us);
+        }
+    }
+}
+
+/// A GNSS receiver's bytes (issue #17): UBX and NMEA interleaved, in arbitrary chunks, through
+/// the firmware's framer and fixers; the UBX log reader, strict and skipping; NAV-PVT payloads
+/// decoded, encoded and decoded again.
+pub fn ubx(data: &[u8]) {
+    use gnss_guard_board::ubx::{self, Chunk, Framer, NavPvt, UbxFixer};
+    let mut fr = Framer::default();
+    let mut fixer = UbxFixer::default();
+    let mut nmea = gnss_guard_board::gnss::NmeaFixer::default();
+    let cut = data.first().map_or(1, |&b| b as usize % 23 + 1);
+    let mut chunks = 0u32;
+    for chunk in data.chunks(cut) {
+        fr.push(chunk, |c| {
+            chunks += 1;
+            match c {
+                Chunk::Nmea(l) => {
+                    let _ = nmea.line(1.0, l);
+                }
+                Chunk::Ubx(f) => {
+                    assert!(f.payload.len() <= ubx::MAX_PAYLOAD);
+                    let _ = fixer.frame(None, f);
+                    let _ = fixer.frame(Some(2.0), f);
+                }
+            }
+        });
+    }
+    assert!(fr.counters.frames <= chunks);
+    for skip in [false, true] {
+        let opts = host_sim::input::LoadOptions { skip_bad_rows: skip, ..Default::default() };
+        let _ = host_sim::input::ubx_log::ubx_log_from_bytes(Path::new("fuzz.ubx"), data, &opts);
+    }
+    if let Some(p) = data.get(..ubx::NAV_PVT_LEN).and_then(NavPvt::parse) {
+        assert_eq!(NavPvt::parse(&p.to_payload()), Some(p));
+        let _ = UbxFixer::fix_of(None, &p);
+        if let Some(t) = p.utc_s() {
+            let mut q = p;
+            q.set_utc(t);
+            assert!(q.utc_s().is_some_and(|u| (u - t).abs() <= 1e-6 * t.abs().max(1.0)), "{t}");
+        }
+    }
+}
+
+/// The vehicle-profile loader (issue #17): a DBC and a map (the input split at its first 0xFF),
+/// and, when they load, frames (the rest of the input) decoded through every mapping.
+pub fn profile(data: &[u8]) {
+    let mut parts = data.splitn(3, |&b| b == 0xFF);
+    let dbc = String::from_utf8_lossy(parts.next().unwrap_or(&[]));
+    let map = String::from_utf8_lossy(parts.next().unwrap_or(&[]));
+    let frames = parts.next().unwrap_or(&[]);
+    let _ = gnss_guard_profile::load::messages(&dbc);
+    let Ok(p) = gnss_guard_profile::load::load(&dbc, &map) else { return };
+    let _ = p.filter_ids();
+    let _ = gnss_guard_profile::load::rust_mappings(&p.mappings);
+    for chunk in frames.chunks(9) {
+        let (len, payload) = chunk.split_first().unwrap_or((&0, &[]));
+        let payload = payload.get(..(*len as usize % 9).min(payload.len())).unwrap_or(&[]);
+        for m in &p.mappings {
+            let _ = m.value(payload);
+            assert_eq!(m.field.raw(payload), m.field.raw_bitwise(payload));
+            let _ = gnss_guard_profile::decode(&p.mappings, m.id, m.extended, m.bus, payload).count();
+        }
+    }
+}
+
 /// The QEMU/digest replay input parser and runner.
 pub fn replay_input(data: &[u8]) {
     use gnss_guard_board::replay;
@@ -366,7 +452,7 @@ pub fn long_horizon(data: &[u8]) {
 pub type Harness = fn(&[u8]);
 
 /// All harnesses by name (the fuzz targets and the corpus replay use the same names).
-pub const TARGETS: [(&str, Harness); 13] = [
+pub const TARGETS: [(&str, Harness); 16] = [
     ("nmea", nmea),
     ("can", can),
     ("drive_csv", drive_csv),
@@ -377,6 +463,9 @@ pub const TARGETS: [(&str, Harness); 13] = [
     ("lstm_blob", lstm_blob),
     ("dsp", dsp),
     ("logs", logs),
+    ("asc", asc),
+    ("ubx", ubx),
+    ("profile", profile),
     ("replay_input", replay_input),
     ("detector", detector),
     ("long_horizon", long_horizon),

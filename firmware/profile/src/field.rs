@@ -87,8 +87,12 @@ impl Field {
         Some(self.extend(v, n))
     }
 
+    /// The physical value, `raw * factor + offset`. An unsigned 64-bit field's raw value is
+    /// taken as unsigned (`raw` returns its bits as `i64`; found by the cantools cross-check).
     pub fn physical(&self, data: &[u8]) -> Option<f64> {
-        self.raw(data).map(|r| r as f64 * self.factor + self.offset)
+        let r = self.raw(data)?;
+        let x = if self.signed { r as f64 } else { r as u64 as f64 };
+        Some(x * self.factor + self.offset)
     }
 
     /// Writes `raw` into `data` (the inverse of [`Field::raw`]); `false` when it does not fit.
@@ -125,6 +129,13 @@ impl Field {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn an_unsigned_64_bit_field_is_unsigned() {
+        let f = Field::new(0, 64, false, false, 1.0, 0.0);
+        assert_eq!(f.physical(&[0xFF; 8]), Some(u64::MAX as f64));
+        assert_eq!(Field::new(0, 64, false, true, 1.0, 0.0).physical(&[0xFF; 8]), Some(-1.0));
+    }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(20_000))]

@@ -237,9 +237,10 @@ fn parse_event(line: &str, base16: bool) -> Result<Parsed, String> {
 }
 
 /// An ASC log of `frames` (classic CAN; times as UNIX microseconds), the `date` line at the
-/// first frame's millisecond. Channel = bus + 1.
+/// earliest frame's millisecond (frames out of time order stay in their order, each after the
+/// date; found by the fuzzer). Channel = bus + 1.
 pub fn asc_text(frames: &[(i64, &CanFrame)]) -> String {
-    let start = frames.first().map_or(0, |(us, _)| us.div_euclid(1000) * 1000);
+    let start = frames.iter().map(|(us, _)| us.div_euclid(1000) * 1000).min().unwrap_or(0);
     let date = format_date(start);
     let mut out = format!("date {date}\nbase hex  timestamps absolute\ninternal events logged\n// version 9.0.0\nBegin Triggerblock {date}\n   0.000000 Start of measurement\n");
     for (us, f) in frames {
