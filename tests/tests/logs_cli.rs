@@ -144,3 +144,38 @@ fn log_errors_name_the_file_line_and_what_was_expected() {
     assert!(err.contains("gnss.nmea") && err.contains(&format!("byte offset {}", ubx.len() - 5)) && err.contains("ends inside a UBX frame"), "{err}");
     let _ = std::fs::remove_dir_all(&tmp);
 }
+
+#[test]
+fn a_logs_folder_is_a_drive_for_inspect_attack_and_eval() {
+    let Some(x) = ExportedLogs::new("a_logs_folder_is_a_drive_for_inspect_attack_and_eval") else { return };
+    // data/drives/mycar/drive1/: a Vector ASC log, a UBX log, the DBC and the map (the source is
+    // the car's folder, as for CSV drives).
+    let car = x.dir.join("data/drives/mycar/drive1");
+    std::fs::create_dir_all(&car).unwrap();
+    for f in ["can.asc", "gnss.ubx"] {
+        std::fs::copy(x.dir.join(f), car.join(f)).unwrap();
+    }
+    std::fs::copy(&x.dbc, car.join("car.dbc")).unwrap();
+    std::fs::copy(&x.map, car.join("car.map")).unwrap();
+    let out = host_sim(&["inspect", "--json", &p(&car)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((s["format"].as_str(), s["epochs"].as_u64()), (Some("can+gnss logs"), Some(579)), "{s}");
+    // The folder gives detect the digest of the two files given apart.
+    let (_, last) = detect_json(&[&p(&car)]);
+    let (_, apart) = x.detect("can.asc", "gnss.ubx");
+    assert_eq!(last["digest"], apart["digest"]);
+    let csv = x.dir.join("jump.csv");
+    let out = host_sim(&["attack", "--kind", "jump", &p(&car), "--out", &p(&csv)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&csv).unwrap().lines().count() > 500);
+    let out = host_sim(&["eval", "--data", &p(&x.dir.join("data")), "--scenarios", "1", "--out", &p(&x.dir.join("eval"))]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(x.dir.join("eval/report.json")).unwrap()).unwrap();
+    assert!(report["cross_source"].get("mycar").is_some(), "{}", report["cross_source"]);
+    // Two CAN logs in one folder: which one is meant is not guessed.
+    std::fs::copy(x.dir.join("can.log"), car.join("can.log")).unwrap();
+    let out = host_sim(&["inspect", &p(&car)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("expected one CAN log and one GNSS log") && err.contains("can.asc, can.log"), "{err}");
+}

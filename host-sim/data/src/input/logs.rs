@@ -15,7 +15,9 @@
 //!   UBX binary log ([`super::ubx_log`]): each fix at its NAV-PVT's UTC time, so the CAN log's
 //!   host must have kept UTC (candump's timestamps are the host's clock).
 //!
-//! Both files are recognised by their content, not their names. A malformed line is an
+//! Both files are recognised by their content, not their names. A folder holding the two logs,
+//! one `.dbc` and one `.map` is a drive like any other ([`load_folder`]): `inspect`, `attack` and
+//! `eval` read it too. A malformed line is an
 //! [`InputError`] naming the file, the line and what was expected; with
 //! [`LoadOptions::skip_bad_rows`] it is counted in [`Replay::skipped_rows`] and dropped instead.
 
@@ -307,6 +309,60 @@ pub fn load(can: &Path, gnss: &Path, profile: &Profile, opts: &LoadOptions) -> R
     let mut r = Replay::new(can, Format::Logs, events_of(&frames, fixes, profile), skipped_can + skipped_gnss);
     r.notes = notes;
     Ok(r)
+}
+
+/// A logs folder's DBC and map: its only `.dbc` and only `.map` file (`None` unless exactly one
+/// of each). Such a folder is one drive of one's own car, for `inspect`, `detect`, `attack` and
+/// `eval` alike; its other files are the CAN log and the GNSS log, told apart by content.
+pub fn folder_profile(dir: &Path) -> Option<(std::path::PathBuf, std::path::PathBuf)> {
+    let files: Vec<std::path::PathBuf> = std::fs::read_dir(dir).ok()?.flatten().map(|e| e.path()).filter(|p| p.is_file()).collect();
+    let with = |ext: &str| -> Vec<&std::path::PathBuf> { files.iter().filter(|p| p.extension().is_some_and(|x| x == ext)).collect() };
+    match (with("dbc").as_slice(), with("map").as_slice()) {
+        ([dbc], [map]) => Some(((*dbc).clone(), (*map).clone())),
+        _ => None,
+    }
+}
+
+/// Loads a logs folder ([`folder_profile`]): the one CAN log and the one GNSS log among its
+/// other files (hidden files and `*.md`/`*.txt` notes are ignored).
+pub fn load_folder(dir: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
+    let (dbc, map) = folder_profile(dir).ok_or_else(|| InputError::file(dir, "expected a logs folder: one .dbc, one .map, a CAN log and a GNSS log"))?;
+    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| InputError::file(p, format!("cannot read as text: {e}")));
+    let profile = gnss_guard_profile::load::load(&read(&dbc)?, &read(&map)?).map_err(|e| InputError::file(&map, e.to_string()))?;
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| InputError::file(dir, format!("cannot list: {e}")))?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_file() && p != &dbc && p != &map)
+        .filter(|p| !p.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.')) && !p.extension().is_some_and(|x| x == "md" || x == "txt"))
+        .collect();
+    files.sort();
+    let (mut can, mut gnss) = (Vec::new(), Vec::new());
+    for f in files {
+        let head: Vec<u8> = {
+            use std::io::Read;
+            let mut b = Vec::new();
+            std::fs::File::open(&f).and_then(|h| h.take(65_536).read_to_end(&mut b)).map_err(|e| InputError::file(&f, format!("cannot read: {e}")))?;
+            b
+        };
+        let text = String::from_utf8_lossy(&head);
+        if looks_like_candump(&text) || super::asc::looks_like_asc(&text) {
+            can.push(f);
+        } else if super::ubx_log::looks_like_ubx(&head) || looks_like_nmea(&text) {
+            gnss.push(f);
+        } else {
+            return Err(InputError::line(&f, 1, "expected a CAN log (candump, ASC) or a GNSS log (NMEA, UBX) in this logs folder"));
+        }
+    }
+    let names = |v: &[std::path::PathBuf]| v.iter().map(|p| p.file_name().unwrap_or_default().to_string_lossy().into_owned()).collect::<Vec<_>>().join(", ");
+    match (can.as_slice(), gnss.as_slice()) {
+        ([c], [g]) => {
+            let mut r = load(c, g, &profile, opts)?;
+            r.path = dir.to_path_buf();
+            Ok(r)
+        }
+        _ => Err(InputError::file(dir, format!("expected one CAN log and one GNSS log, found CAN logs [{}] and GNSS logs [{}]", names(&can), names(&gnss)))),
+    }
 }
 
 /// The event stream of decoded frames and fixes (fixes first, as every loader orders them).

@@ -27,6 +27,9 @@ pub fn detect(path: &Path) -> Option<Format> {
         if path.join("general").join("csv").is_dir() {
             return Some(Format::Hdd);
         }
+        if logs::folder_profile(path).is_some() {
+            return Some(Format::Logs);
+        }
         return None;
     }
     match path.extension().and_then(|e| e.to_str()) {
@@ -43,10 +46,12 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
         Some(Format::Hdd) => hdd::load(path, opts),
         Some(Format::Comma2k19) => comma2k19::load(path),
         Some(Format::OpenXc) => openxc::load(path, opts),
-        Some(Format::Simulated) | Some(Format::Logs) | None => Err(InputError::file(
+        Some(Format::Logs) => logs::load_folder(path, opts),
+        Some(Format::Simulated) | None => Err(InputError::file(
             path,
             "not a drive: expected a .csv drive file, an OpenXC .jsonl trace, a comma2k19 segment \
-             folder (with processed_log/) or an HDD session folder (with general/csv/)",
+             folder (with processed_log/), an HDD session folder (with general/csv/) or a logs \
+             folder (a CAN log, a GNSS log, one .dbc and one .map)",
         )),
     }
 }
