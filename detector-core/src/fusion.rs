@@ -91,10 +91,14 @@ pub enum Reason {
     /// Degraded: the track check's learnt noise leaves it blind to drifts slower than its bound:
     /// it does not judge.
     TrackUninformative = 15,
+    /// Supporting: the receiver's own spoofing detection says spoofing. Never fires a strategy
+    /// or raises the alarm by itself (receivers raise it on benign events); it tells whoever
+    /// reads an alarm that the receiver saw it too.
+    ReceiverSpoofing = 16,
 }
 
 impl Reason {
-    pub const ALL: [Reason; 16] = [
+    pub const ALL: [Reason; 17] = [
         Reason::ShiftExceedsPrediction,
         Reason::ShiftBelowPrediction,
         Reason::GnssMovingWheelsStanding,
@@ -111,6 +115,7 @@ impl Reason {
         Reason::NoTurnInputs,
         Reason::GnssSettling,
         Reason::TrackUninformative,
+        Reason::ReceiverSpoofing,
     ];
     pub const fn name(self) -> &'static str {
         match self {
@@ -130,20 +135,21 @@ impl Reason {
             Reason::NoTurnInputs => "no_turn_inputs",
             Reason::GnssSettling => "gnss_settling",
             Reason::TrackUninformative => "track_uninformative",
+            Reason::ReceiverSpoofing => "receiver_spoofing",
         }
     }
 }
 
 /// A set of [`Reason`]s.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Reasons(pub u16);
+pub struct Reasons(pub u32);
 
 impl Reasons {
     pub fn insert(&mut self, r: Reason) {
-        self.0 |= 1 << r as u16;
+        self.0 |= 1 << r as u32;
     }
     pub fn contains(self, r: Reason) -> bool {
-        self.0 & (1 << r as u16) != 0
+        self.0 & (1 << r as u32) != 0
     }
     pub fn iter(self) -> impl Iterator<Item = Reason> {
         Reason::ALL.into_iter().filter(move |r| self.contains(*r))
@@ -288,6 +294,9 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                 v.degraded.insert(StrategyId::Track);
             }
         };
+        if s.receiver_spoofing {
+            v.reasons.insert(Reason::ReceiverSpoofing);
+        }
         if !s.t.is_finite() || !s.pos.is_valid() {
             self.restart(false);
             self.prev_t = None;

@@ -87,6 +87,10 @@ pub struct Fix {
     /// The receiver's own estimate of its horizontal position error (1 sigma), metres, when it
     /// reports one (NMEA GST, UBX NAV-PVT hAcc).
     pub h_acc_m: Option<f32>,
+    /// The receiver's own spoofing detection says it is being spoofed (UBX NAV-STATUS
+    /// `spoofDetState` 2 or 3, the last one before this fix). Supporting evidence only: receivers
+    /// raise it on benign events too.
+    pub receiver_spoofing: bool,
 }
 
 /// Everything known at one GNSS epoch, synchronised.
@@ -103,6 +107,8 @@ pub struct Sample {
     pub gnss_course: Reading,
     /// The receiver's horizontal accuracy (1 sigma), metres.
     pub gnss_h_acc: Reading,
+    /// The fix's [`Fix::receiver_spoofing`].
+    pub receiver_spoofing: bool,
     /// Vehicle signals indexed by [`Signal::index`].
     pub signals: [Reading; Signal::COUNT],
     /// Distance driven since the previous epoch, metres: the wheel speed's integral over its

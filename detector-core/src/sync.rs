@@ -345,6 +345,7 @@ impl Synchronizer {
             gnss_speed: Reading::from_opt(p.fix.speed_mps),
             gnss_course: Reading::from_opt(p.fix.course_deg),
             gnss_h_acc: Reading::from_opt(p.fix.h_acc_m),
+            receiver_spoofing: p.fix.receiver_spoofing,
             signals,
             dist_m,
             turn_deg,
@@ -412,7 +413,7 @@ mod tests {
     use crate::geo::LatLon;
 
     fn fix(t: f64) -> Fix {
-        Fix { t, pos: LatLon::new(48.0, 11.0 + t * 1e-5), speed_mps: Some(1.0), course_deg: None, h_acc_m: None }
+        Fix { t, pos: LatLon::new(48.0, 11.0 + t * 1e-5), speed_mps: Some(1.0), course_deg: None, h_acc_m: None, receiver_spoofing: false }
     }
 
     fn collect(f: impl FnOnce(&mut Synchronizer, &mut dyn FnMut(&Sample))) -> heapless::Vec<Sample, 64> {

@@ -26,9 +26,9 @@ fn reading() -> impl Strategy<Value = Reading> {
 }
 
 fn sample() -> impl Strategy<Value = Sample> {
-    (wild_f64(), wild_f32(), wild_f64(), wild_f64(), (reading(), reading(), reading(), reading()), proptest::array::uniform5(reading()), (reading(), reading()))
-        .prop_map(|(t, dt_s, lat, lon, (shift_m, gnss_speed, gnss_course, gnss_h_acc), signals, (dist_m, turn_deg))| Sample {
-            t, dt_s, pos: LatLon::new(lat, lon), shift_m, gnss_speed, gnss_course, gnss_h_acc, signals, dist_m, turn_deg,
+    (wild_f64(), wild_f32(), wild_f64(), wild_f64(), (reading(), reading(), reading(), reading()), proptest::array::uniform5(reading()), (reading(), reading(), any::<bool>()))
+        .prop_map(|(t, dt_s, lat, lon, (shift_m, gnss_speed, gnss_course, gnss_h_acc), signals, (dist_m, turn_deg, receiver_spoofing))| Sample {
+            t, dt_s, pos: LatLon::new(lat, lon), shift_m, gnss_speed, gnss_course, gnss_h_acc, signals, dist_m, turn_deg, receiver_spoofing,
         })
 }
 
@@ -96,7 +96,7 @@ proptest! {
             if kind < 5 {
                 s.push_obs(Signal::ALL[kind as usize], t, v, &mut emit);
             } else {
-                s.push_fix(Fix { t, pos: LatLon::new(lat, lon), speed_mps: Some(v), course_deg: None, h_acc_m: None }, &mut emit);
+                s.push_fix(Fix { t, pos: LatLon::new(lat, lon), speed_mps: Some(v), course_deg: None, h_acc_m: None, receiver_spoofing: false }, &mut emit);
             }
         }
         s.flush(&mut emit);
@@ -106,9 +106,23 @@ proptest! {
         let base = 1e9;
         let mut e2 = |x: &Sample| got.push(*x);
         s.push_obs(Signal::WheelSpeed, base - 0.5, 1.0, &mut e2);
-        s.push_fix(Fix { t: base, pos: LatLon::new(1.0, 1.0), speed_mps: None, course_deg: None, h_acc_m: None }, &mut e2);
+        s.push_fix(Fix { t: base, pos: LatLon::new(1.0, 1.0), speed_mps: None, course_deg: None, h_acc_m: None, receiver_spoofing: false }, &mut e2);
         s.push_obs(Signal::WheelSpeed, base + 0.5, 3.0, &mut e2);
         prop_assert_eq!(got.len(), 1);
         prop_assert_eq!(got[0].wheel_speed(), Reading::Valid(2.0));
+    }
+}
+
+/// The receiver's own spoofing flag is a reason of its own and supporting only: on a clean drive
+/// it never fires a strategy nor raises the alarm, and it shows at exactly the flagged epochs.
+#[test]
+fn the_receivers_spoofing_flag_is_a_reason_never_an_alarm() {
+    use detector_core::fusion::Reason;
+    let mut d = Detector::new(Config::for_profile(&LOGGER_1HZ), KinematicPredictor::default());
+    let clean: Vec<Sample> = clean_with_jump(1000.0).into_iter().take(20).enumerate().map(|(k, s)| Sample { receiver_spoofing: k % 3 == 1, ..s }).collect();
+    for (k, s) in clean.iter().enumerate() {
+        let v = d.step(s);
+        assert!(!v.alarm && v.fired.is_empty(), "epoch {k}: {v:?}");
+        assert_eq!(v.reasons.contains(Reason::ReceiverSpoofing), k % 3 == 1, "epoch {k}");
     }
 }

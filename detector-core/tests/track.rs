@@ -110,6 +110,7 @@ fn drive(car: &Car, secs: f64, seed: u64) -> Vec<Sample> {
             gnss_speed: Reading::Valid(v as f32),
             gnss_course: Reading::Missing,
             gnss_h_acc: Reading::from_opt(car.h_acc_m),
+            receiver_spoofing: false,
             signals,
             dist_m: if first { Reading::Stale } else { Reading::Valid(dist as f32) },
             turn_deg: if first { Reading::Stale } else { Reading::Valid(turn as f32) },

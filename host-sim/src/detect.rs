@@ -277,7 +277,8 @@ impl StatusStream {
                     o["nmea_errors"] = json!(nmea_errors);
                     o["restarts"] = json!(restarts);
                 }
-                Some(StatusPage::Page2 { faults, reset_cause, alarm_retries, detector_restarts }) => {
+                Some(StatusPage::Page2 { faults, reset_cause, alarm_retries, detector_restarts, receiver_spoofing }) => {
+                    o["receiver_spoofing"] = json!(receiver_spoofing);
                     o["faults"] = json!(faults);
                     o["reset_cause"] = json!(reset_cause);
                     o["alarm_retries"] = json!(alarm_retries);

@@ -373,7 +373,7 @@ impl Walk {
         }
         let speed = (self.v + r.noise(0.1)).max(0.0) as f32;
         let course = if self.v > 1.0 { wrap_360(self.heading + r.noise(1.0)) } else { r.range(0.0, 360.0) } as f32;
-        let mut fix = Fix { t: self.t, pos: reported, speed_mps: Some(speed), course_deg: Some(course), h_acc_m: None };
+        let mut fix = Fix { t: self.t, pos: reported, speed_mps: Some(speed), course_deg: Some(course), h_acc_m: None, receiver_spoofing: false };
         if faults {
             match r.next_u64() % 8 {
                 0 => fix.pos = LatLon::new(f64::NAN, fix.pos.lon_deg),
@@ -426,6 +426,7 @@ impl Walk {
             gnss_speed: Reading::from_opt(fix.speed_mps),
             gnss_course: Reading::from_opt(fix.course_deg),
             gnss_h_acc: Reading::Missing,
+            receiver_spoofing: false,
             signals,
             dist_m,
             turn_deg,

@@ -137,7 +137,7 @@ fn log_errors_name_the_file_line_and_what_was_expected() {
     let err = String::from_utf8_lossy(&run(&[]).stderr).to_string();
     assert!(err.contains("gnss.nmea") && err.contains("expected an NMEA log") && err.contains("UBX"), "{err}");
     // A UBX log cut inside a frame names the byte offset.
-    let f = Fix { t: 0.0, pos: detector_core::geo::LatLon::new(48.0, 11.0), speed_mps: Some(1.0), course_deg: Some(0.0), h_acc_m: None };
+    let f = Fix { t: 0.0, pos: detector_core::geo::LatLon::new(48.0, 11.0), speed_mps: Some(1.0), course_deg: Some(0.0), h_acc_m: None, receiver_spoofing: false };
     let ubx = host_sim::input::ubx_log::ubx_stream(&[(1e9, &f), (1e9 + 0.1, &f)], gnss_guard_board::ubx::SpoofState::None);
     std::fs::write(&gnss, &ubx[..ubx.len() - 5]).unwrap();
     let err = String::from_utf8_lossy(&run(&[]).stderr).to_string();

@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! can_rx_task  (interrupt executor, preempts the others) bxCAN FIFO -> CanMsg -> CAN_RX ---\
-//! gnss_task    USART2 RX, DMA ring buffer, NMEA lines -> NmeaLine -> NMEA_RX --------------> detector_task
+//! gnss_task    USART2 RX, DMA ring buffer, NMEA + UBX -> GnssMsg -> GNSS_RX --------------> detector_task
 //!                                                                                           | pipeline: synchroniser, detector,
 //! can_tx_task  <- TX_QUEUE (alarm first, status pages) <- TX_WAKE <--------------------------/ status, alarm outbox; PA5; watchdog
 //! ```
@@ -48,7 +48,8 @@ use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer};
-use gnss_guard_board::gnss::{LineSplitter, MAX_SENTENCE};
+use gnss_guard_board::gnss::MAX_SENTENCE;
+use gnss_guard_board::ubx::{self, Chunk, Framer};
 use gnss_guard_board::health::{Faults, ResetCause, TxFrame, TxQueue, WatchdogGate};
 use gnss_guard_board::pipeline::Pipeline;
 use {defmt_rtt as _, panic_probe as _};
@@ -74,18 +75,25 @@ struct CanMsg {
     data: [u8; 8],
 }
 
-/// A received NMEA sentence.
+/// What the receiver sent: an NMEA sentence or a checked UBX frame (told apart on the UART by
+/// `gnss_guard_board::ubx::Framer`).
 #[derive(Clone)]
-struct NmeaLine {
+enum GnssBody {
+    Nmea(heapless::Vec<u8, MAX_SENTENCE>),
+    Ubx { class: u8, id: u8, payload: heapless::Vec<u8, { ubx::MAX_PAYLOAD }> },
+}
+
+#[derive(Clone)]
+struct GnssMsg {
     t_us: u64,
-    line: heapless::Vec<u8, MAX_SENTENCE>,
+    body: GnssBody,
 }
 
 static EXECUTOR_CAN: InterruptExecutor = InterruptExecutor::new();
 static EXECUTOR_MAIN: static_cell::StaticCell<Executor> = static_cell::StaticCell::new();
 static CAN: static_cell::StaticCell<Can<'static>> = static_cell::StaticCell::new();
 static CAN_RX: Channel<CriticalSectionRawMutex, CanMsg, 64> = Channel::new();
-static NMEA_RX: Channel<CriticalSectionRawMutex, NmeaLine, 8> = Channel::new();
+static GNSS_RX: Channel<CriticalSectionRawMutex, GnssMsg, 8> = Channel::new();
 static TX_QUEUE: Mutex<CriticalSectionRawMutex, RefCell<TxQueue>> = Mutex::new(RefCell::new(TxQueue::new()));
 
 #[interrupt]
@@ -178,28 +186,31 @@ async fn can_tx_task(mut tx: CanTx<'static>) {
 
 #[embassy_executor::task]
 async fn gnss_task(mut rx: RingBufferedUartRx<'static>) {
-    let mut splitter = LineSplitter::default();
+    let mut framer = Framer::default();
     let mut buf = [0u8; 64];
     loop {
         match rx.read(&mut buf).await {
             Ok(n) => {
                 let t_us = Instant::now().as_micros();
-                let before = splitter.dropped;
-                splitter.push(&buf[..n], |l| {
-                    let mut line = heapless::Vec::new();
-                    let _ = line.extend_from_slice(l);
-                    if send_drop_oldest(&NMEA_RX, NmeaLine { t_us, line }) {
+                let before = framer.lines.dropped.saturating_add(framer.counters.bad_checksum);
+                framer.push(&buf[..n], |c| {
+                    let body = match c {
+                        Chunk::Nmea(l) => GnssBody::Nmea(heapless::Vec::from_slice(l).unwrap_or_default()),
+                        Chunk::Ubx(f) => GnssBody::Ubx { class: f.class, id: f.id, payload: heapless::Vec::from_slice(f.payload).unwrap_or_default() },
+                    };
+                    if send_drop_oldest(&GNSS_RX, GnssMsg { t_us, body }) {
                         bump(&UART_ERRORS);
                     }
                 });
-                for _ in before..splitter.dropped {
+                let after = framer.lines.dropped.saturating_add(framer.counters.bad_checksum);
+                for _ in before..after {
                     bump(&UART_ERRORS);
                 }
             }
             Err(e) => {
                 // Overrun, framing, noise or parity: the partial sentence is unusable.
                 bump(&UART_ERRORS);
-                splitter.discard_partial();
+                framer.lines.discard_partial();
                 warn!("GNSS UART error {}", e);
             }
         }
@@ -228,13 +239,22 @@ async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatch
     loop {
         let mut on_verdict = |v: &detector_core::fusion::Verdict| {
             if !v.fired.is_empty() {
-                warn!("SPOOFING ALARM epoch {} fired {=u8:b} reasons {=u16:b}", v.epoch, v.fired.0, v.reasons.0);
+                warn!("SPOOFING ALARM epoch {} fired {=u8:b} reasons {=u32:b}", v.epoch, v.fired.0, v.reasons.0);
             }
         };
         // Woken by a frame, a sentence, or every 100 ms for the status and alarm repeats.
-        match select3(CAN_RX.receive(), NMEA_RX.receive(), Timer::after(Duration::from_millis(100))).await {
+        match select3(CAN_RX.receive(), GNSS_RX.receive(), Timer::after(Duration::from_millis(100))).await {
             Either3::First(m) => p.on_can(m.t_us as f64 * 1e-6, m.id as u32, &m.data[..m.len as usize], &mut on_verdict),
-            Either3::Second(n) => p.on_nmea(n.t_us as f64 * 1e-6, &n.line, &mut on_verdict),
+            Either3::Second(g) => match &g.body {
+                GnssBody::Nmea(line) => p.on_nmea(g.t_us as f64 * 1e-6, line, &mut on_verdict),
+                GnssBody::Ubx { class, id, payload } => {
+                    let was = p.ubx.spoof;
+                    p.on_ubx(g.t_us as f64 * 1e-6, *class, *id, payload, &mut on_verdict);
+                    if p.ubx.spoof != was {
+                        warn!("receiver's own spoofing detection: {}", p.ubx.spoof.name());
+                    }
+                }
+            },
             Either3::Third(()) => {}
         }
         let now = Instant::now().as_micros() as f64 * 1e-6;

@@ -44,7 +44,7 @@ impl NmeaFixer {
                 }
                 let (vs, vc) = self.vtg.take().unwrap_or((None, None));
                 self.counters.fixes = self.counters.fixes.wrapping_add(1);
-                Some(Fix { t, pos, speed_mps: r.speed_knots.map(|k| k * KNOTS_TO_MPS).or(vs), course_deg: r.course_deg.or(vc), h_acc_m: None })
+                Some(Fix { t, pos, speed_mps: r.speed_knots.map(|k| k * KNOTS_TO_MPS).or(vs), course_deg: r.course_deg.or(vc), h_acc_m: None, receiver_spoofing: false })
             }
             Ok(Sentence::Gga(g)) => {
                 self.gga_no_fix = g.quality == 0;

@@ -119,6 +119,7 @@ pub struct Health {
     degraded: StrategySet,
     learning: bool,
     alarm: bool,
+    receiver_spoofing: bool,
     next_status_t: Option<f64>,
     /// A poll after this (and before `next_status_t`) is certainly within the period of it: one
     /// comparison instead of a soft-float subtraction per poll (see [`Health::status_due`]).
@@ -160,6 +161,7 @@ impl Health {
         self.learning = v.learning;
         self.alarm = v.alarm;
         use detector_core::fusion::Reason;
+        self.receiver_spoofing = v.reasons.contains(Reason::ReceiverSpoofing);
         if v.reasons.contains(Reason::TimeDiscontinuity) || v.reasons.contains(Reason::InvalidSample) {
             self.counters.detector_restarts = self.counters.detector_restarts.saturating_add(1);
         }
@@ -250,6 +252,7 @@ impl Health {
         put(&STATUS_RESET_CAUSE, &mut p2, self.reset_cause as u64, 4);
         put(&STATUS_ALARM_RETRIES, &mut p2, sat(c.alarm_retries, 16), 16);
         put(&STATUS_DETECTOR_RESTARTS, &mut p2, sat(c.detector_restarts, 16), 16);
+        put(&STATUS_RECEIVER_SPOOFING, &mut p2, self.receiver_spoofing as u64, 1);
         [(STATUS_ID, p0), (STATUS_ID, p1), (STATUS_ID, p2)]
     }
 }
@@ -259,7 +262,7 @@ impl Health {
 pub enum StatusPage {
     Page0 { state: Option<State>, ran: u8, degraded: u8, fix_age_s: Option<f64>, epochs: u32 },
     Page1 { can_dropped: u16, can_overruns: u16, nmea_errors: u16, restarts: u8 },
-    Page2 { faults: u8, reset_cause: u8, alarm_retries: u16, detector_restarts: u16 },
+    Page2 { faults: u8, reset_cause: u8, alarm_retries: u16, detector_restarts: u16, receiver_spoofing: bool },
 }
 
 /// Decodes a status frame, or `None` for another id, a short frame or an unknown page.
@@ -291,6 +294,7 @@ pub fn decode_status(id: u16, data: &[u8]) -> Option<StatusPage> {
             reset_cause: raw(&STATUS_RESET_CAUSE)? as u8,
             alarm_retries: raw(&STATUS_ALARM_RETRIES)? as u16,
             detector_restarts: raw(&STATUS_DETECTOR_RESTARTS)? as u16,
+            receiver_spoofing: raw(&STATUS_RECEIVER_SPOOFING)? != 0,
         }
     } else {
         return None;
@@ -328,14 +332,17 @@ pub struct AlarmFrame {
     pub alarm: bool,
     pub fired: u8,
     pub degraded: u8,
+    /// The first 16 reasons ([`detector_core::fusion::Reason`]).
     pub reasons: u16,
+    /// Reason 16 (supporting): the receiver's own spoofing flag.
+    pub receiver_spoofing: bool,
     /// Epoch of the earliest verdict merged in (24 bits on the wire).
     pub epoch: u32,
 }
 
 impl AlarmFrame {
     pub fn of(v: &Verdict) -> Self {
-        AlarmFrame { alarm: v.alarm, fired: v.fired.0, degraded: v.degraded.0, reasons: v.reasons.0, epoch: v.epoch }
+        AlarmFrame { alarm: v.alarm, fired: v.fired.0, degraded: v.degraded.0, reasons: v.reasons.0 as u16, receiver_spoofing: v.reasons.contains(detector_core::fusion::Reason::ReceiverSpoofing), epoch: v.epoch }
     }
     /// `self` with `newer` merged in: nothing either says is lost.
     pub fn merge(self, newer: AlarmFrame) -> Self {
@@ -344,6 +351,7 @@ impl AlarmFrame {
             fired: self.fired | newer.fired,
             degraded: newer.degraded,
             reasons: self.reasons | newer.reasons,
+            receiver_spoofing: self.receiver_spoofing || newer.receiver_spoofing,
             epoch: self.epoch,
         }
     }
@@ -353,6 +361,7 @@ impl AlarmFrame {
         put(&ALARM_FIRED, &mut d, self.fired as u64, 8);
         put(&ALARM_DEGRADED, &mut d, self.degraded as u64, 8);
         put(&ALARM_REASONS, &mut d, self.reasons as u64, 16);
+        put(&ALARM_RECEIVER_SPOOFING, &mut d, self.receiver_spoofing as u64, 1);
         put(&ALARM_EPOCH, &mut d, (self.epoch & 0xFF_FFFF) as u64, 24);
         (ALARM_ID, d)
     }
@@ -366,6 +375,7 @@ impl AlarmFrame {
             fired: raw(&ALARM_FIRED)? as u8,
             degraded: raw(&ALARM_DEGRADED)? as u8,
             reasons: raw(&ALARM_REASONS)? as u16,
+            receiver_spoofing: raw(&ALARM_RECEIVER_SPOOFING)? != 0,
             epoch: raw(&ALARM_EPOCH)? as u32,
         })
     }
@@ -571,7 +581,7 @@ mod tests {
             p => panic!("{p:?}"),
         }
         assert_eq!(decode_status(f[1].0, &f[1].1), Some(StatusPage::Page1 { can_dropped: 0xFFFF, can_overruns: 0, nmea_errors: 12, restarts: 0 }));
-        assert_eq!(decode_status(f[2].0, &f[2].1), Some(StatusPage::Page2 { faults: Faults::UART_START, reset_cause: 1, alarm_retries: 0, detector_restarts: 0 }));
+        assert_eq!(decode_status(f[2].0, &f[2].1), Some(StatusPage::Page2 { faults: Faults::UART_START, reset_cause: 1, alarm_retries: 0, detector_restarts: 0, receiver_spoofing: false }));
         assert_eq!(decode_status(f[0].0, &f[0].1[..3]), None, "a short frame decodes to nothing, no panic");
     }
 
@@ -669,13 +679,13 @@ mod tests {
         // Only the clear request ends it.
         let mut q = TxQueue::default();
         q.push_status(Health::default().status_due(0.0).unwrap());
-        q.push_alarm(AlarmFrame { alarm: true, fired: 1, degraded: 0, reasons: 1, epoch: 5 });
+        q.push_alarm(AlarmFrame { alarm: true, fired: 1, degraded: 0, reasons: 1, receiver_spoofing: false, epoch: 5 });
         // The alarm goes first; when the mailboxes are full it comes back merged with a newer one.
         let first = q.pop().unwrap();
         assert!(matches!(first, TxFrame::Alarm(_)));
-        q.push_alarm(AlarmFrame { alarm: true, fired: 4, degraded: 0, reasons: 4, epoch: 6 });
+        q.push_alarm(AlarmFrame { alarm: true, fired: 4, degraded: 0, reasons: 4, receiver_spoofing: true, epoch: 6 });
         q.give_back(first);
-        assert_eq!(q.pop(), Some(TxFrame::Alarm(AlarmFrame { alarm: true, fired: 5, degraded: 0, reasons: 5, epoch: 5 })));
+        assert_eq!(q.pop(), Some(TxFrame::Alarm(AlarmFrame { alarm: true, fired: 5, degraded: 0, reasons: 5, receiver_spoofing: true, epoch: 5 })));
         assert_eq!(q.alarm_retries, 1);
         for _ in 0..3 {
             assert!(matches!(q.pop(), Some(TxFrame::Status(_))));

@@ -4,6 +4,7 @@
 
 use crate::can;
 use crate::gnss::NmeaFixer;
+use crate::ubx::UbxFixer;
 use crate::health::{AlarmFrame, AlarmOutbox, Health, StatusFrames};
 use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::sample::Sample;
@@ -37,7 +38,12 @@ impl Digest {
         self.bytes(&v.epoch.to_le_bytes());
         self.bytes(&v.t.to_bits().to_le_bytes());
         self.bytes(&[v.ran.0, v.fired.0, v.degraded.0, v.alarm as u8]);
-        self.bytes(&v.reasons.0.to_le_bytes());
+        // The first 16 reasons as two bytes (the digest of every drive without the later ones is
+        // unchanged); later reasons only when present.
+        self.bytes(&(v.reasons.0 as u16).to_le_bytes());
+        if v.reasons.0 >> 16 != 0 {
+            self.bytes(&((v.reasons.0 >> 16) as u16).to_le_bytes());
+        }
         self.f32(v.shift.map(|s| s.residual_m));
         self.f32(v.shift.map(|s| s.threshold_m));
         self.f32(v.motion.map(|m| m.disagree_s));
@@ -53,6 +59,9 @@ pub struct Pipeline<'t> {
     sync: Synchronizer,
     det: Detector<'t, Predictor<'t>>,
     pub nmea: NmeaFixer,
+    /// UBX fixes and the receiver's spoofing state. Once a NAV-PVT fix has come, NMEA fixes
+    /// are left out (the receiver sends both for the same epoch; NAV-PVT is the finer one).
+    pub ubx: UbxFixer,
     pub digest: Digest,
     /// Epochs judged and CAN frames received since start (each wraps at `u32::MAX`).
     pub epochs: u32,
@@ -84,6 +93,7 @@ impl<'t> Pipeline<'t> {
                 None => det,
             },
             nmea: NmeaFixer::default(),
+            ubx: UbxFixer::default(),
             digest: Digest::default(),
             epochs: 0,
             frames: 0,
@@ -126,11 +136,23 @@ impl<'t> Pipeline<'t> {
 
     /// [`Pipeline::on_nmea`], telling `w` where each stage ends (the QEMU run's breakdown).
     pub fn on_nmea_timed<W: Stopwatch + ?Sized>(&mut self, t: f64, line: &[u8], out: &mut impl FnMut(&Verdict), w: &mut W) {
-        let fix = self.nmea.line(t, line);
+        let fix = self.nmea.line(t, line).filter(|_| self.ubx.fixes == 0);
         let c = self.nmea.counters;
         self.health.counters.nmea_errors = c.rejected.saturating_add(c.overlong).saturating_add(self.uart_errors);
         w.lap(Stage::NmeaParse);
         let Some(fix) = fix else { return };
+        self.push_fix(t, fix, out, w);
+    }
+
+    /// One checked UBX frame (class, id, payload) received at time `t`, seconds: NAV-PVT gives a
+    /// fix (stamped `t`, as NMEA fixes are), NAV-STATUS the receiver's spoofing flag.
+    pub fn on_ubx(&mut self, t: f64, class: u8, id: u8, payload: &[u8], out: &mut impl FnMut(&Verdict)) {
+        let fix = self.ubx.frame(Some(t), crate::ubx::Frame { class, id, payload });
+        let Some(fix) = fix else { return };
+        self.push_fix(t, fix, out, &mut NoStopwatch);
+    }
+
+    fn push_fix<W: Stopwatch + ?Sized>(&mut self, t: f64, fix: detector_core::sample::Fix, out: &mut impl FnMut(&Verdict), w: &mut W) {
         self.health.on_fix(t);
         let Self { sync, det, digest, epochs, health, alarm, .. } = self;
         sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s, w));

@@ -408,7 +408,8 @@ pub struct UbxFixer {
 }
 
 impl UbxFixer {
-    /// One checked frame; a fix for a NAV-PVT with one. The fix's time is `t` when given (the
+    /// One checked frame; a fix for a NAV-PVT with one, carrying the last NAV-STATUS's spoofing
+    /// flag. The fix's time is `t` when given (the
     /// firmware's receive time), else the NAV-PVT's own UTC time (logs without a host clock).
     /// `hAcc` becomes the fix's accuracy; 0, which no receiver reports with a fix, is taken as
     /// not reported.
@@ -423,7 +424,7 @@ impl UbxFixer {
             (NAV, NAV_PVT) => {
                 let pvt = NavPvt::parse(fr.payload)?;
                 self.last_pvt = Some(pvt);
-                let fix = Self::fix_of(t, &pvt);
+                let fix = Self::fix_of(t, &pvt).map(|f| Fix { receiver_spoofing: self.spoof.indicated(), ..f });
                 match fix {
                     Some(_) => self.fixes = self.fixes.wrapping_add(1),
                     None => self.no_fix = self.no_fix.saturating_add(1),
@@ -453,6 +454,7 @@ impl UbxFixer {
             speed_mps: Some(pvt.g_speed_mm_s as f32 / 1000.0),
             course_deg: Some(pvt.head_mot_e5 as f32 / 1e5),
             h_acc_m: (pvt.h_acc_mm > 0).then(|| pvt.h_acc_mm as f32 / 1000.0),
+            receiver_spoofing: false,
         })
     }
 }

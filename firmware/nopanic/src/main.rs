@@ -3,7 +3,7 @@
 //! This image runs the firmware's per-epoch path exactly as `firmware/app` does (a CAN frame in,
 //! UART bytes split into NMEA sentences in, the synchroniser, all strategies with the LSTM's
 //! integer kernel and the turn templates, verdicts, the alarm outbox, the status frames, the
-//! transmit queue and the watchdog gate) on input the optimiser can assume nothing about
+//! transmit queue and the watchdog gate; UART bytes told apart into NMEA and UBX by the framer) on input the optimiser can assume nothing about
 //! (`core::hint::black_box`). It links `panic-never`, whose panic handler calls an undefined
 //! symbol: if any panic path (an index the compiler cannot prove in range, an `unwrap`, an
 //! integer overflow check, a division by zero) survives optimisation anywhere in that path, in
@@ -17,7 +17,7 @@ use detector_core::fusion::{Config, Verdict};
 use detector_core::profile::UBLOX_10HZ;
 use detector_core::strategy::location_shift::Predictor;
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
-use gnss_guard_board::gnss::LineSplitter;
+use gnss_guard_board::ubx::{Chunk, Framer};
 use gnss_guard_board::health::{TxQueue, WatchdogGate};
 use gnss_guard_board::pipeline::Pipeline;
 #[cfg(not(feature = "find-panics"))]
@@ -38,7 +38,7 @@ fn main() -> ! {
     let cfg = Config::for_predictor(&UBLOX_10HZ, &predictor);
     let templates = TemplateSet::parse(DEFAULT_TEMPLATES).ok();
     let mut p = Pipeline::new(cfg, templates, predictor);
-    let mut split = LineSplitter::default();
+    let mut split = Framer::default();
     let mut gate = WatchdogGate::default();
     let mut txq = TxQueue::default();
     let mut sink = |v: &Verdict| {
@@ -56,10 +56,13 @@ fn main() -> ! {
         let bytes: [u8; 64] = black_box([0; 64]);
         let n: usize = black_box(64);
         if black_box(false) {
-            split.discard_partial();
+            split.lines.discard_partial();
         }
-        split.push(bytes.get(..n).unwrap_or(&bytes), |line| p.on_nmea(t, line, &mut sink));
-        p.uart_errors = split.dropped;
+        split.push(bytes.get(..n).unwrap_or(&bytes), |c| match c {
+            Chunk::Nmea(line) => p.on_nmea(t, line, &mut sink),
+            Chunk::Ubx(f) => p.on_ubx(t, f.class, f.id, f.payload, &mut sink),
+        });
+        p.uart_errors = split.lines.dropped.saturating_add(split.counters.bad_checksum);
         // What the detector task owes the bus, through the transmit queue.
         let out = p.poll(t);
         if let Some(a) = out.alarm {

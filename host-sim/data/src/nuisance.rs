@@ -298,7 +298,7 @@ mod tests {
         let mut ev = Vec::new();
         for k in 0..600 {
             let t = k as f64 * 0.1;
-            ev.push(Event::Fix(Fix { t, pos: LatLon::new(48.0 + t * 1e-4, 11.0), speed_mps: Some(11.1), course_deg: Some(0.0), h_acc_m: None }));
+            ev.push(Event::Fix(Fix { t, pos: LatLon::new(48.0 + t * 1e-4, 11.0), speed_mps: Some(11.1), course_deg: Some(0.0), h_acc_m: None, receiver_spoofing: false }));
             ev.push(Event::Obs { sig: Signal::WheelSpeed, t: t + 0.05, v: 11.0 });
             ev.push(Event::Obs { sig: Signal::YawRate, t: t + 0.05, v: 0.0 });
         }

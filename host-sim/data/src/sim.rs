@@ -96,6 +96,7 @@ pub fn drive(seed: u64, minutes: f64, gnss_hz: f64) -> Replay {
                 speed_mps: Some((v + normal(rng, 0.05)).max(0.0) as f32),
                 course_deg: Some(course as f32),
                 h_acc_m: None,
+                receiver_spoofing: false,
             }));
         }
     };

@@ -54,7 +54,7 @@ pub fn load(root: &Path) -> Result<Replay, InputError> {
         if !pos.is_valid() {
             return Err(InputError::array(root, gv_name, format!("row {i}: expected lat/lon in range, found {}, {}", row[0], row[1])));
         }
-        events.push(Event::Fix(Fix { t, pos, speed_mps: Some(row[2] as f32), course_deg: Some(row[5] as f32), h_acc_m: None }));
+        events.push(Event::Fix(Fix { t, pos, speed_mps: Some(row[2] as f32), course_deg: Some(row[5] as f32), h_acc_m: None, receiver_spoofing: false }));
     }
     // CAN
     let dbc_path = find_dbc(root)?;

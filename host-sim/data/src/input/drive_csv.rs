@@ -132,7 +132,7 @@ fn parse_row(
         let ft = match age { Some(a) if (0.0..1.0).contains(&a) => t - a, _ => t };
         let speed = match cspd { Some(c) => num(c, "gnss_speed_mps")?, None => None };
         let course = match ccrs { Some(c) => num(c, "gnss_course_deg")?, None => None };
-        evs.push(Event::Fix(Fix { t: ft, pos, speed_mps: speed.map(|v| v as f32), course_deg: course.map(|v| v as f32), h_acc_m: None }));
+        evs.push(Event::Fix(Fix { t: ft, pos, speed_mps: speed.map(|v| v as f32), course_deg: course.map(|v| v as f32), h_acc_m: None, receiver_spoofing: false }));
     }
     for &(c, sig, name) in sigs {
         if let Some(v) = num(c, name)? {

@@ -114,7 +114,7 @@ pub fn load(session: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
             _ => return Err(InputError::line(&pos_file, line_ix as u64 + 2, format!(
                 "expected lat in [-90, 90] and lng in [-180, 180], found {a:?}, {b:?}"))),
         };
-        events.push(Event::Fix(Fix { t: *t, pos: p, speed_mps: None, course_deg: course_at(*t), h_acc_m: None }));
+        events.push(Event::Fix(Fix { t: *t, pos: p, speed_mps: None, course_deg: course_at(*t), h_acc_m: None, receiver_spoofing: false }));
     }
     let u = &opts.hdd;
     let sensors: [(&str, &[&str], Signal, f64); 4] = [

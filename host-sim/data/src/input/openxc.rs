@@ -67,7 +67,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
                             "expected latitude in [-90, 90] and longitude in [-180, 180], found {a}, {b}")));
                     }
                 } else {
-                    events.push(Event::Fix(Fix { t: ta.max(tb), pos, speed_mps: None, course_deg: None, h_acc_m: None }));
+                    events.push(Event::Fix(Fix { t: ta.max(tb), pos, speed_mps: None, course_deg: None, h_acc_m: None, receiver_spoofing: false }));
                 }
                 lat = None;
                 lon = None;

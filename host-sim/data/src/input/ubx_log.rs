@@ -130,7 +130,7 @@ mod tests {
 
     #[test]
     fn a_written_stream_reads_back_with_its_rounding() {
-        let f = Fix { t: 0.0, pos: LatLon::new(37.720_997_71, -122.472_305_33), speed_mps: Some(7.8234), course_deg: Some(2.140_004), h_acc_m: Some(1.2345) };
+        let f = Fix { t: 0.0, pos: LatLon::new(37.720_997_71, -122.472_305_33), speed_mps: Some(7.8234), course_deg: Some(2.140_004), h_acc_m: Some(1.2345), receiver_spoofing: false };
         let bytes = ubx_stream(&[(1_533_198_887.25, &f), (1_533_198_887.35, &f)], SpoofState::Indicated);
         assert!(looks_like_ubx(&bytes));
         let (log, skipped) = ubx_log_from_bytes(Path::new("g.ubx"), &bytes, &LoadOptions::default()).unwrap();
@@ -144,7 +144,7 @@ mod tests {
 
     #[test]
     fn bad_frames_name_the_offset() {
-        let f = Fix { t: 0.0, pos: LatLon::new(48.0, 11.0), speed_mps: Some(1.0), course_deg: Some(0.0), h_acc_m: None };
+        let f = Fix { t: 0.0, pos: LatLon::new(48.0, 11.0), speed_mps: Some(1.0), course_deg: Some(0.0), h_acc_m: None, receiver_spoofing: false };
         let mut bytes = ubx_stream(&[(1e9, &f)], SpoofState::None);
         bytes[30] ^= 0x40;
         let e = ubx_log_from_bytes(Path::new("g.ubx"), &bytes, &LoadOptions::default()).unwrap_err().to_string();
