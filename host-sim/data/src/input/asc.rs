@@ -21,7 +21,7 @@
 //! line that does not parse is an error naming its line.
 
 use super::drive::{InputError, LoadOptions};
-use super::logs::CanFrame;
+use super::candump::CanFrame;
 use gnss_guard_board::ubx::{civil_from_days, days_from_civil};
 use std::path::Path;
 

@@ -7,6 +7,7 @@
 
 pub mod asc;
 pub mod can;
+pub mod candump;
 pub mod comma2k19;
 pub mod drive;
 pub mod drive_csv;
