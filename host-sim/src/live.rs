@@ -171,28 +171,38 @@ fn socketcan_reader(iface: String, tx: Sender<Msg>) {
     }
 }
 
+/// One read: the byte count (0 at the end of input), retrying interruptions and serial
+/// time-outs. A pseudo-terminal whose writer closed reads EIO, or hangs up (the serial port
+/// reports a broken pipe): the end of the input too.
+fn read_some(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    loop {
+        match r.read(buf) {
+            Ok(n) => return Ok(n),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted || e.kind() == std::io::ErrorKind::TimedOut => continue,
+            Err(e) if e.raw_os_error() == Some(5) || e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(0),
+            Err(e) => return Err(e),
+        }
+    }
+}
+
 /// The GNSS reader: stamped NMEA lines, or the receiver's raw bytes (see the module doc).
 fn gnss_reader(name: String, mut r: impl Read, receiver_time: bool, tx: Sender<Msg>) {
     let mut buf = [0u8; 4096];
     let mut first: Vec<u8> = Vec::new();
+    let end = |e: Option<std::io::Error>| {
+        let _ = tx.send(Msg::End(Stream::Gnss, e.map(|e| format!("{name}: read failed: {e}"))));
+    };
     // Decide the kind from the first non-blank byte.
     let stamped = loop {
-        match r.read(&mut buf) {
-            Ok(0) => {
-                let _ = tx.send(Msg::End(Stream::Gnss, None));
-                return;
-            }
+        match read_some(&mut r, &mut buf) {
+            Ok(0) => return end(None),
             Ok(n) => {
                 first.extend_from_slice(&buf[..n]);
                 if let Some(b) = first.iter().find(|b| !b.is_ascii_whitespace()) {
                     break *b == b'(' || b.is_ascii_digit();
                 }
             }
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted || e.kind() == std::io::ErrorKind::TimedOut => continue,
-            Err(e) => {
-                let _ = tx.send(Msg::End(Stream::Gnss, Some(format!("{name}: read failed: {e}"))));
-                return;
-            }
+            Err(e) => return end(Some(e)),
         }
     };
     let mut nmea = NmeaFixer::default();
@@ -244,24 +254,11 @@ fn gnss_reader(name: String, mut r: impl Read, receiver_time: bool, tx: Sender<M
                 return;
             }
         }
-        let n = loop {
-            match r.read(&mut buf) {
-                Ok(n) => break n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted || e.kind() == std::io::ErrorKind::TimedOut => continue,
-                // A pseudo-terminal whose writer closed reads EIO, or hangs up (the serial
-                // port reports a broken pipe): the end of the input.
-                Err(e) if e.raw_os_error() == Some(5) || e.kind() == std::io::ErrorKind::BrokenPipe => break 0,
-                Err(e) => {
-                    let _ = tx.send(Msg::End(Stream::Gnss, Some(format!("{name}: read failed: {e}"))));
-                    return;
-                }
-            }
-        };
-        if n == 0 {
-            let _ = tx.send(Msg::End(Stream::Gnss, None));
-            return;
+        match read_some(&mut r, &mut buf) {
+            Ok(0) => return end(None),
+            Ok(n) => chunk = buf[..n].to_vec(),
+            Err(e) => return end(Some(e)),
         }
-        chunk = buf[..n].to_vec();
     }
 }
 
@@ -320,18 +317,20 @@ impl<W: Write> Judge<'_, W> {
         if self.profile.is_none() && self.waiting.len() < self.profile_epochs {
             return Ok(());
         }
-        self.start();
-        for s in std::mem::take(&mut self.waiting) {
-            self.judge(&s)?;
-        }
-        Ok(())
+        self.start()
     }
 
-    fn start(&mut self) {
+    /// Chooses the profile (from the waiting epochs' rate unless given), makes the detector and
+    /// judges the waiting epochs.
+    fn start(&mut self) -> std::io::Result<()> {
         let p = self.profile.unwrap_or_else(|| detect::profile_of(&self.waiting));
         self.profile = Some(p);
         let d = Detector::new(detect::config(p, self.kind), detect::predictor(self.kind)).with_turns(detect::default_templates());
         self.det = Some(d);
+        for s in std::mem::take(&mut self.waiting) {
+            self.judge(&s)?;
+        }
+        Ok(())
     }
 
     fn judge(&mut self, s: &Sample) -> std::io::Result<()> {
@@ -355,10 +354,7 @@ impl<W: Write> Judge<'_, W> {
             self.sample(s)?;
         }
         if self.det.is_none() && !self.waiting.is_empty() {
-            self.start();
-            for s in std::mem::take(&mut self.waiting) {
-                self.judge(&s)?;
-            }
+            self.start()?;
         }
         Ok(())
     }

@@ -36,7 +36,12 @@ pub const MAX_PAYLOAD: usize = 100;
 
 /// The 8-bit Fletcher checksum over `bytes` (class, id, length and payload).
 pub fn checksum(bytes: &[u8]) -> [u8; 2] {
-    let (mut a, mut b) = (0u8, 0u8);
+    checksum_more([0, 0], bytes)
+}
+
+/// [`checksum`] continued over more bytes (a frame's header and payload kept apart).
+pub fn checksum_more(sum: [u8; 2], bytes: &[u8]) -> [u8; 2] {
+    let [mut a, mut b] = sum;
     for &x in bytes {
         a = a.wrapping_add(x);
         b = b.wrapping_add(a);
@@ -54,12 +59,7 @@ pub fn encode(class: u8, id: u8, payload: &[u8], out: &mut [u8]) -> Option<usize
     head.copy_from_slice(&[SYNC[0], SYNC[1], class, id, len.to_le_bytes()[0], len.to_le_bytes()[1]]);
     let (body, ck) = rest.split_at_mut(payload.len());
     body.copy_from_slice(payload);
-    let mut sum = checksum(&head[2..]);
-    for &x in payload {
-        sum[0] = sum[0].wrapping_add(x);
-        sum[1] = sum[1].wrapping_add(sum[0]);
-    }
-    ck.copy_from_slice(&sum);
+    ck.copy_from_slice(&checksum_more(checksum(&head[2..]), payload));
     Some(n)
 }
 
@@ -375,12 +375,7 @@ impl Framer {
                 }
                 self.state = State::Text;
                 let (payload, ck) = self.buf.split_at(len as usize);
-                let mut sum = checksum(&self.head);
-                for &x in payload {
-                    sum[0] = sum[0].wrapping_add(x);
-                    sum[1] = sum[1].wrapping_add(sum[0]);
-                }
-                if sum != ck {
+                if checksum_more(checksum(&self.head), payload) != ck {
                     self.counters.bad_checksum = self.counters.bad_checksum.saturating_add(1);
                     return;
                 }

@@ -29,10 +29,10 @@ impl CanFrame {
 
     /// The line `candump -l` writes for this frame.
     pub fn candump_line(&self) -> String {
-        let us = micros_of(self.t);
         let id = if self.extended { format!("{:08X}", self.id) } else { format!("{:03X}", self.id) };
         let data: String = self.data.iter().map(|b| format!("{b:02X}")).collect();
-        let ts = format!("({}.{:06})", us.div_euclid(1_000_000), us.rem_euclid(1_000_000));
+        // The microseconds `micros_of` gives (the same `{:.6}`), negative times too.
+        let ts = format!("({:.6})", self.t);
         if self.data.len() > 8 {
             format!("{ts} {} {id}##0{data}", self.iface)
         } else {
@@ -152,6 +152,10 @@ mod tests {
         let fd = parse_candump_line(&fd_line).unwrap();
         assert_eq!(fd.data, (0..12).collect::<Vec<u8>>());
         assert_eq!(fd.candump_line(), "(3.000000) can0 123##0000102030405060708090A0B");
+        // Before the epoch too, and the microsecond the ASC writer takes.
+        let neg = CanFrame { t: -0.5, ..r };
+        assert_eq!(parse_candump_line(&neg.candump_line()).unwrap().t, -0.5);
+        assert_eq!(micros_of(-0.5), -500_000);
     }
 
     #[test]

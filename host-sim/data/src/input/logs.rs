@@ -347,8 +347,7 @@ pub fn comma2k19_as_logs(seg: &Path) -> Result<ExportedLogs, InputError> {
     let fixes: Vec<(f64, &Fix)> = native.fixes().map(|f| (f.t + offset_s, f)).collect();
     for (t, f) in &fixes {
         for sentence in nmea_sentences_utc(f, *t) {
-            let us = micros_of(*t);
-            nmea += &format!("({}.{:06}) {sentence}\n", us.div_euclid(1_000_000), us.rem_euclid(1_000_000));
+            nmea += &format!("({t:.6}) {sentence}\n");
         }
     }
     let ubx = super::ubx_log::ubx_stream(&fixes, gnss_guard_board::ubx::SpoofState::Unknown);

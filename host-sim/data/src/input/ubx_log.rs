@@ -8,7 +8,7 @@
 
 use super::drive::{InputError, LoadOptions};
 use detector_core::sample::Fix;
-use gnss_guard_board::ubx::{Chunk, Framer, NavPvt, SpoofState, UbxFixer, NAV, NAV_PVT, NAV_STATUS};
+use gnss_guard_board::ubx::{Chunk, Framer, NavPvt, SpoofState, UbxFixer, NAV, NAV_PVT, NAV_PVT_LEN, NAV_STATUS, NAV_STATUS_LEN};
 use std::path::Path;
 
 /// What a UBX log held.
@@ -56,22 +56,17 @@ pub fn ubx_log_from_bytes(path: &Path, bytes: &[u8], opts: &LoadOptions) -> Resu
         fr.push(std::slice::from_ref(b), |c| match c {
             Chunk::Nmea(_) => log.nmea_sentences += 1,
             Chunk::Ubx(f) => {
-                match (f.class, f.id) {
-                    (NAV, NAV_PVT) => match NavPvt::parse(f.payload) {
-                        Some(p) => log.pvts.push(p),
-                        None => log.other_frames += 1,
-                    },
-                    (NAV, NAV_STATUS) if f.payload.len() == gnss_guard_board::ubx::NAV_STATUS_LEN => {}
+                let fix = fixer.frame(None, f);
+                match (f.class, f.id, f.payload.len()) {
+                    (NAV, NAV_PVT, NAV_PVT_LEN) => {
+                        log.pvts.extend(fixer.last_pvt);
+                        match fix {
+                            Some(x) => log.fixes.push(x),
+                            None => log.no_fix += 1,
+                        }
+                    }
+                    (NAV, NAV_STATUS, NAV_STATUS_LEN) => log.spoof_states[fixer.spoof as usize] += 1,
                     _ => log.other_frames += 1,
-                }
-                let before = fixer.no_fix;
-                match fixer.frame(None, f) {
-                    Some(fix) => log.fixes.push(fix),
-                    None if fixer.no_fix != before => log.no_fix += 1,
-                    None => {}
-                }
-                if (f.class, f.id) == (NAV, NAV_STATUS) && f.payload.len() == gnss_guard_board::ubx::NAV_STATUS_LEN {
-                    log.spoof_states[fixer.spoof as usize] += 1;
                 }
             }
         });
@@ -111,7 +106,7 @@ pub fn ubx_stream(fixes: &[(f64, &Fix)], spoof: SpoofState) -> Vec<u8> {
         if let Some(n) = gnss_guard_board::ubx::encode(NAV, NAV_PVT, &p.to_payload(), &mut buf) {
             out.extend_from_slice(&buf[..n]);
         }
-        let mut status = [0u8; gnss_guard_board::ubx::NAV_STATUS_LEN];
+        let mut status = [0u8; NAV_STATUS_LEN];
         status[..4].copy_from_slice(&p.itow_ms.to_le_bytes());
         status[4] = 3;
         status[5] = 1 | 4 | 8;
