@@ -366,4 +366,20 @@ mod tests {
         assert!(split_nmea_line("GPRMC").unwrap_err().contains("starting with `$`"));
         assert!(split_nmea_line("abc $GPRMC").unwrap_err().contains("host timestamp"));
     }
+
+    #[test]
+    fn a_log_with_gst_gives_its_fixes_the_receivers_accuracy() {
+        let f = Fix { t: 0.0, pos: detector_core::geo::LatLon::new(48.0, 11.0), speed_mps: Some(10.0), course_deg: Some(90.0), h_acc_m: None, receiver_spoofing: false };
+        let gst = |hms: &str| format!("$GPGST,{hms},0.9,2.0,1.5,30.0,0.6,0.8,1.9*{:02X}", checksum(&format!("GPGST,{hms},0.9,2.0,1.5,30.0,0.6,0.8,1.9")));
+        let t0 = 1_533_180_079.0;
+        let mut text = String::new();
+        for (i, hms) in ["032119.00", "032120.00", "032121.00"].iter().enumerate() {
+            text += &nmea_sentences_utc(&f, t0 + i as f64).join("\n");
+            text += &format!("\n{}\n", gst(hms));
+        }
+        let (fixes, skipped) = nmea_log_from_text(Path::new("g.nmea"), &text, &LoadOptions::default()).unwrap();
+        assert_eq!(skipped, 0);
+        let acc: Vec<Option<f32>> = fixes.iter().map(|f| f.h_acc_m).collect();
+        assert_eq!(acc, [None, Some(1.0), Some(1.0)], "each RMC takes the previous epoch's GST: sqrt(0.6^2 + 0.8^2)");
+    }
 }
