@@ -4,7 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 elf=firmware/target/thumbv7em-none-eabihf/release/gnss-guard-fw
-[ -f "$elf" ] || (cd firmware && cargo build -q --release -p gnss-guard-fw)
+# Always build: measuring an image left from older sources would report a stale figure.
+(cd firmware && cargo build -q --release -p gnss-guard-fw)
 read -r flash ram < <(size -A "$elf" | awk '
   $1 ~ /^\.(vector_table|text|rodata|data)$/ { f += $2 }
   $1 ~ /^\.(data|bss|uninit)$/ { r += $2 }
