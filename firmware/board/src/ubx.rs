@@ -16,8 +16,8 @@
 //!
 //! Why not the `ublox` crate: 0.10 (no_std, proto23) links to 4.9 KB, but after LTO its parser
 //! keeps 15 bounds-check panics and 4 formatted panics on the receive path, which the firmware's
-//! no-panic link check (`firmware/nopanic`) refuses. host-sim cross-checks this decoder against
-//! it (`host-sim/data/tests/ubx_crosscheck.rs`).
+//! no-panic link check (`firmware/nopanic`) refuses. The framing and decoding are cross-checked
+//! against `pyubx2`, an independent implementation (`tests/tests/ubx_crosscheck.rs`).
 
 use detector_core::geo::LatLon;
 use detector_core::sample::Fix;
