@@ -87,7 +87,7 @@ pub fn nmea_log_from_text(path: &Path, text: &str, opts: &LoadOptions) -> Result
         let t = match ts {
             Some(t) => t,
             None => match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
-                Ok(gnss_guard_board::nmea::Sentence::Rmc(_)) => match rmc_utc(sentence) {
+                Ok(gnss_guard_board::nmea::Sentence::Rmc(r)) => match utc_of(&r) {
                     Some(t) => t,
                     None => return Err(InputError::line(path, line_no, "expected an RMC with a date and a time (the log has no host timestamps)")),
                 },
@@ -146,12 +146,15 @@ pub fn read_gnss_log(gnss: &Path, opts: &LoadOptions) -> Result<(Vec<Fix>, usize
 /// without both).
 pub fn rmc_utc(sentence: &str) -> Option<f64> {
     match gnss_guard_board::nmea::parse(sentence.as_bytes()) {
-        Ok(gnss_guard_board::nmea::Sentence::Rmc(r)) => {
-            let ((d, m, y), tod) = (r.date?, r.time_s?);
-            Some(days_from_civil(2000 + y as i64, m as i64, d as i64) as f64 * 86_400.0 + tod)
-        }
+        Ok(gnss_guard_board::nmea::Sentence::Rmc(r)) => utc_of(&r),
         _ => None,
     }
+}
+
+/// A parsed RMC's UTC date and time as UNIX seconds (`None` without both).
+fn utc_of(r: &gnss_guard_board::nmea::Rmc) -> Option<f64> {
+    let ((d, m, y), tod) = (r.date?, r.time_s?);
+    Some(days_from_civil(2000 + y as i64, m as i64, d as i64) as f64 * 86_400.0 + tod)
 }
 
 /// One sentence through `fixer` at time `t`: a fix, nothing, or what is wrong with it.
