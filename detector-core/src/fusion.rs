@@ -319,7 +319,9 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         if !self.settled {
             let since = *self.settling_since.get_or_insert(s.t);
             // Time going backwards ends the wait too: it must never last. (`s.t` is finite here.)
-            self.settled = s.t < since || s.t - since >= self.cfg.shift.settle_s as f64;
+            // A 1 ms margin: `(t0 + 5) - t0` may round to 4.9999999 s, and the wait must not
+            // depend on how the timestamps round (the synchroniser's margins are 1 ms too).
+            self.settled = s.t < since || s.t - since >= self.cfg.shift.settle_s as f64 - 1e-3;
         }
 
         // Strategy 1. The predictor sees every sample so its state stays current.
