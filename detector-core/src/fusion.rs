@@ -14,6 +14,8 @@
 use crate::stage::{NoStopwatch, Stage, Stopwatch};
 use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
+use crate::strategy::track::calibration::Record;
+use crate::strategy::track::velocity::{ACROSS, ALONG};
 use crate::strategy::track::{TrackCheck, TrackConfig, TrackOutcome};
 use crate::strategy::location_shift::judge::{ShiftConfig, ShiftOutcome, ShiftPredictor};
 use crate::strategy::location_shift::predictor::Predictor;
@@ -95,10 +97,19 @@ pub enum Reason {
     /// or raises the alarm by itself (receivers raise it on benign events); it tells whoever
     /// reads an alarm that the receiver saw it too.
     ReceiverSpoofing = 16,
+    /// Beyond the paper: the GNSS velocity disagrees with the car's along the track (the
+    /// velocity test; a drift along the road, a scaled speed).
+    VelocityAlong = 17,
+    /// Beyond the paper: the same across the track (a drift across the road, a rotated track).
+    VelocityAcross = 18,
+    /// This drive contradicts the car's stored calibration beyond its bounds (a tyre change,
+    /// another installation, or GNSS spoofed since before the drive): it fires once, and the
+    /// stored calibration is kept, not relearnt.
+    CalibrationContradicted = 19,
 }
 
 impl Reason {
-    pub const ALL: [Reason; 17] = [
+    pub const ALL: [Reason; 20] = [
         Reason::ShiftExceedsPrediction,
         Reason::ShiftBelowPrediction,
         Reason::GnssMovingWheelsStanding,
@@ -116,6 +127,9 @@ impl Reason {
         Reason::GnssSettling,
         Reason::TrackUninformative,
         Reason::ReceiverSpoofing,
+        Reason::VelocityAlong,
+        Reason::VelocityAcross,
+        Reason::CalibrationContradicted,
     ];
     pub const fn name(self) -> &'static str {
         match self {
@@ -136,6 +150,9 @@ impl Reason {
             Reason::GnssSettling => "gnss_settling",
             Reason::TrackUninformative => "track_uninformative",
             Reason::ReceiverSpoofing => "receiver_spoofing",
+            Reason::VelocityAlong => "velocity_along",
+            Reason::VelocityAcross => "velocity_across",
+            Reason::CalibrationContradicted => "calibration_contradicted",
         }
     }
 }
@@ -234,6 +251,27 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
 
     pub fn config(&self) -> &Config {
         &self.cfg
+    }
+
+    /// Starts the track check from the car's stored calibration (see
+    /// [`crate::strategy::track::calibration`]): calibrated from the first epoch, its learning
+    /// bounded around the record. A record that is not plausible is ignored (check
+    /// [`Record::plausible`] first to report it).
+    pub fn with_calibration(mut self, r: &Record) -> Self {
+        self.track = TrackCheck::with_record(self.cfg.track, r);
+        self
+    }
+
+    /// What this drive learnt about the car, to store for its next drive: `None` before it is
+    /// calibrated and when this drive contradicts the stored record (kept, never silently
+    /// relearnt).
+    pub fn calibration_record(&self) -> Option<Record> {
+        self.track.record()
+    }
+
+    /// The track check (its calibration, for status reports).
+    pub fn track(&self) -> &TrackCheck {
+        &self.track
     }
 
     pub fn clear_alarm(&mut self) {
@@ -413,7 +451,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                 }
                 Some(o) => {
                     v.ran.insert(StrategyId::Track);
-                    if o.fired.iter().any(|f| *f) {
+                    if o.any_fired() {
                         v.fired.insert(StrategyId::Track);
                     }
                     if o.fired[0] {
@@ -421,6 +459,17 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
                     }
                     if o.fired[1] {
                         v.reasons.insert(Reason::Track30s);
+                    }
+                    if let Some(f) = o.velocity.map(|x| x.fired) {
+                        if f[ALONG] {
+                            v.reasons.insert(Reason::VelocityAlong);
+                        }
+                        if f[ACROSS] {
+                            v.reasons.insert(Reason::VelocityAcross);
+                        }
+                    }
+                    if o.contradiction.is_some() {
+                        v.reasons.insert(Reason::CalibrationContradicted);
                     }
                     v.track = Some(o);
                 }

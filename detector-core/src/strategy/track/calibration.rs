@@ -1,0 +1,518 @@
+//! What the track check learns about the car, and the limits on that learning.
+//!
+//! Calibration is state a spoofer can target: a drift slow enough to stay under a threshold
+//! would otherwise be learnt as a change of the car. So everything here is
+//! - **bounded**: a drive that starts from a stored record moves the wheel-speed scale by at
+//!   most [`CalLimits::scale_bound`] and the delay by at most [`CalLimits::delay_bound_s`] from
+//!   it (a tyre's radius changes by tenths of a percent over weeks);
+//! - **rate-limited** once calibrated: the scale by [`CalLimits::scale_rate_per_s`], the delay by
+//!   one candidate per [`CalLimits::delay_dwell_s`];
+//! - **frozen** while evidence accumulates (the caller does not call [`Calibration::learn`]
+//!   then);
+//! - **kept across drives** as a [`Record`] (its byte format is `wire::calibration`);
+//! - **never silently relearnt**: this drive's own estimate, made beside the bounded one, that
+//!   contradicts the stored record beyond the bounds is reported ([`Calibration::contradiction`]).
+//!
+//! The delay is learnt with either sign among [`DELAYS`] candidates from [`DELAY_MIN_S`] to
+//! `-DELAY_MIN_S`: positive when the GNSS is late (receiver latency), negative when the vehicle
+//! signals are (a logger that stamps CAN frames late, a slow bus). It is learnt twice, once for
+//! each thing the receiver reports ([`Source`]): its position (through position differences)
+//! and its velocity, which receivers filter, and some take from a second, slower receiver, so
+//! its latency is its own. For each candidate the exponentially weighted least squares of the
+//! GNSS velocity on the dead reckoning's velocity that much earlier (`sum G conj(D)
+//! e^{-i theta}`, `sum |D|^2`, rotation removed so they survive a re-alignment) gives a scale;
+//! the candidate whose fit explains the most wins.
+
+/// Delay candidates: -3, -2.875, ..., +3 s (a velocity held from a second, 1 Hz receiver that
+/// lags by 1.8 s is up to 2.8 s late).
+pub const DELAYS: usize = 49;
+pub const DELAY_STEP_S: f32 = 0.125;
+pub const DELAY_MIN_S: f32 = -3.0;
+/// The candidate of zero delay.
+const ZERO: usize = 24;
+
+/// The delay of candidate `k`, seconds.
+pub fn delay_of(k: usize) -> f32 {
+    DELAY_MIN_S + k as f32 * DELAY_STEP_S
+}
+
+/// The candidate nearest to a delay.
+pub fn candidate(delay_s: f32) -> usize {
+    let k = libm::roundf((delay_s - DELAY_MIN_S) / DELAY_STEP_S);
+    if k.is_finite() { (k.max(0.0) as usize).min(DELAYS - 1) } else { ZERO }
+}
+
+/// The bounds and rates of the learning. See the module documentation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CalLimits {
+    /// Seconds of driving (velocity pairs above the learning speed) before a car without a
+    /// stored record counts as calibrated; until then its learning is free and it says so.
+    pub warmup_s: f32,
+    /// Time constant of the exponentially weighted fits once calibrated, seconds: the delay is
+    /// the installation's and its information comes only from accelerations, so its fits
+    /// remember about a drive (the scale follows them within its rate).
+    pub tau_s: f32,
+    /// How far the scale may move from the stored record within one drive (relative).
+    pub scale_bound: f32,
+    /// How fast the scale may move once calibrated, per second of driving (relative).
+    pub scale_rate_per_s: f32,
+    /// How far the delay may move from the stored record within one drive, seconds.
+    pub delay_bound_s: f32,
+    /// Once calibrated the delay moves by one candidate at most once per this many seconds.
+    pub delay_dwell_s: f32,
+    /// Seconds of this drive's own data before it may contradict the stored record.
+    pub contradict_after_s: f32,
+    /// What a stored record's fit weighs at the start of a drive, seconds of driving.
+    pub stored_weight_s: f32,
+}
+
+impl Default for CalLimits {
+    fn default() -> Self {
+        CalLimits {
+            warmup_s: 120.0,
+            tau_s: 3600.0,
+            scale_bound: 0.01,
+            scale_rate_per_s: 1.0e-5,
+            delay_bound_s: 0.375,
+            delay_dwell_s: 30.0,
+            contradict_after_s: 180.0,
+            stored_weight_s: 120.0,
+        }
+    }
+}
+
+/// What the receiver reports that a delay is learnt for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// Its position (compared through position differences over a second).
+    Position = 0,
+    /// Its velocity (speed and course).
+    Velocity = 1,
+}
+
+/// What a car's calibration holds between drives (see `wire::calibration` for its bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record {
+    /// GNSS distance over wheel-speed distance.
+    pub scale: f32,
+    /// How late the GNSS position and the GNSS velocity are behind the vehicle signals,
+    /// seconds (negative: the vehicle signals late); the velocity's NaN where the receiver
+    /// reported none.
+    pub delay_s: [f32; 2],
+    /// Seconds of driving the record was learnt from, over all its drives.
+    pub learnt_s: f32,
+    /// Drives that contributed.
+    pub drives: u16,
+    /// The gyro's bias, deg/s (NaN: no gyro, or never measured), and the seconds of standstill
+    /// behind it.
+    pub gyro_bias_degps: f32,
+    pub gyro_bias_weight_s: f32,
+    /// The gyro's scale error (true turn = (1 + e) measured turn) and its uncertainty.
+    pub gyro_scale_error: f32,
+    pub gyro_scale_sd: f32,
+    /// The position windows' learnt noise (10 s, 30 s): `s0` metres and `k`.
+    pub noise_s0_m: [f32; 2],
+    pub noise_k: [f32; 2],
+    /// The velocity channels' quiet noise (along, across), m/s.
+    pub velocity_sigma_mps: [f32; 2],
+    /// The epoch length of the receiver it was learnt with, seconds (noise is the receiver's).
+    pub nominal_dt_s: f32,
+}
+
+impl Record {
+    /// Every field finite and physically possible (what a decoded record must satisfy).
+    pub fn plausible(&self) -> Result<(), &'static str> {
+        let ok = |v: f32, lo: f32, hi: f32| v.is_finite() && (lo..=hi).contains(&v);
+        if !ok(self.scale, 0.8, 1.25) {
+            return Err("scale");
+        }
+        if !ok(self.delay_s[0], DELAY_MIN_S, -DELAY_MIN_S) || !(self.delay_s[1].is_nan() || ok(self.delay_s[1], DELAY_MIN_S, -DELAY_MIN_S)) {
+            return Err("delay_s");
+        }
+        if !ok(self.learnt_s, 0.0, 1.0e9) {
+            return Err("learnt_s");
+        }
+        if !(self.gyro_bias_degps.is_nan() || ok(self.gyro_bias_degps, -10.0, 10.0)) {
+            return Err("gyro_bias_degps");
+        }
+        if !ok(self.gyro_bias_weight_s, 0.0, 1.0e9) {
+            return Err("gyro_bias_weight_s");
+        }
+        if !ok(self.gyro_scale_error, -0.2, 0.2) || !ok(self.gyro_scale_sd, 0.0, 1.0) {
+            return Err("gyro_scale");
+        }
+        if !self.noise_s0_m.iter().all(|v| ok(*v, 0.0, 1000.0)) || !self.noise_k.iter().all(|v| ok(*v, 0.0, 10.0)) {
+            return Err("noise");
+        }
+        if !self.velocity_sigma_mps.iter().all(|v| ok(*v, 0.0, 100.0)) {
+            return Err("velocity_sigma_mps");
+        }
+        if !ok(self.nominal_dt_s, 0.01, 10.0) {
+            return Err("nominal_dt_s");
+        }
+        Ok(())
+    }
+}
+
+/// What of the stored record this drive contradicts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Contradiction {
+    /// This drive's wheel-speed scale is beyond the bound from the stored one (a tyre change,
+    /// another car, or GNSS spoofed since before the drive began).
+    Scale,
+    /// This drive's delay (of the position or the velocity) is beyond the bound from the
+    /// stored one.
+    Delay,
+}
+
+/// Exponentially weighted sums of the scale fit for one delay candidate: `sum G conj(D)
+/// e^{-i theta}` (re, im) and `sum |D|^2`.
+#[derive(Clone, Copy, Debug, Default)]
+struct DelayFit {
+    a: (f32, f32),
+    b: f32,
+}
+
+impl DelayFit {
+    /// The residual the fit removes (larger is better): `Re(a)^2 / b` for a positive scale.
+    fn explained(&self) -> f32 {
+        if self.b > 0.0 && self.a.0 > 0.0 {
+            self.a.0 * self.a.0 / self.b
+        } else {
+            0.0
+        }
+    }
+    fn scale(&self) -> Option<f32> {
+        (self.b > 1.0 && self.a.0 > 0.0).then(|| self.a.0 / self.b).filter(|s| s.is_finite())
+    }
+    fn add(&mut self, g: (f32, f32), d: (f32, f32), derot: (f32, f32), dt: f32, keep: f32) {
+        let gd = cmul(cmul(g, conj(d)), derot);
+        self.a = (self.a.0 * keep + dt * gd.0, self.a.1 * keep + dt * gd.1);
+        self.b = self.b * keep + dt * norm2(d);
+    }
+}
+
+/// One delay's fits: per candidate, the one in use, and this drive's own fit at the stored one.
+#[derive(Clone, Copy, Debug)]
+struct DelaySet {
+    fits: [DelayFit; DELAYS],
+    best: usize,
+    /// Seconds since the delay last moved (once calibrated), and seconds learnt.
+    dwell_s: f32,
+    learnt_s: f32,
+    /// The stored record's candidate (the bounds' centre), and this drive's own fit there.
+    anchor: Option<usize>,
+    own: DelayFit,
+    own_s: f32,
+}
+
+impl DelaySet {
+    fn new() -> Self {
+        DelaySet { fits: [DelayFit::default(); DELAYS], best: ZERO, dwell_s: 0.0, learnt_s: 0.0, anchor: None, own: DelayFit::default(), own_s: 0.0 }
+    }
+    /// A set that starts from a stored delay and scale: every candidate with the stored fit's
+    /// weight (a speed of 15 m/s for `weight_s`), so this drive's data decides between them.
+    fn stored(delay_s: f32, scale: f32, weight_s: f32) -> Self {
+        let mut d = DelaySet::new();
+        d.best = candidate(delay_s);
+        d.anchor = Some(d.best);
+        let b = weight_s * 225.0;
+        d.fits = [DelayFit { a: (scale * b, 0.0), b }; DELAYS];
+        d
+    }
+    /// The candidate whose fit explains the most (ties keep the one in use).
+    fn free(&self) -> usize {
+        self.fits
+            .iter()
+            .enumerate()
+            .fold((self.best, self.fits.get(self.best).map_or(0.0, DelayFit::explained)), |acc, (k, f)| if f.explained() > acc.1 { (k, f.explained()) } else { acc })
+            .0
+    }
+    fn scale(&self) -> Option<f32> {
+        self.fits.get(self.best).and_then(DelayFit::scale)
+    }
+}
+
+/// The wheel-speed scale and the delays, learnt within limits. See the module documentation.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    lim: CalLimits,
+    sets: [DelaySet; 2],
+    /// The scale in use.
+    scale: f32,
+    /// Seconds of driving learnt from (a stored record's included).
+    learnt_s: f32,
+    /// Learnt enough to judge small drifts (a stored record, or a first drive's warm-up done).
+    calibrated: bool,
+    /// The stored record this drive started from: the centre of the bounds (a first drive has
+    /// rates only: its first minutes are not trusted to bound the rest of it).
+    stored: Option<Record>,
+    contradiction: Option<Contradiction>,
+}
+
+impl Calibration {
+    pub fn new(lim: CalLimits) -> Self {
+        Calibration { lim, sets: [DelaySet::new(); 2], scale: 1.0, learnt_s: 0.0, calibrated: false, stored: None, contradiction: None }
+    }
+
+    /// A calibration that starts from a stored record: calibrated from the first epoch, its
+    /// bounds centred on the record.
+    pub fn from_record(lim: CalLimits, r: &Record) -> Self {
+        let mut c = Calibration::new(lim);
+        if r.plausible().is_err() {
+            return c;
+        }
+        c.sets[0] = DelaySet::stored(r.delay_s[0], r.scale, lim.stored_weight_s);
+        if r.delay_s[1].is_finite() {
+            c.sets[1] = DelaySet::stored(r.delay_s[1], r.scale, lim.stored_weight_s);
+        }
+        c.scale = r.scale;
+        c.learnt_s = r.learnt_s.max(lim.warmup_s);
+        c.stored = Some(*r);
+        c.calibrated = true;
+        c
+    }
+
+    pub fn limits(&self) -> &CalLimits {
+        &self.lim
+    }
+    fn set(&self, src: Source) -> &DelaySet {
+        &self.sets[src as usize]
+    }
+    /// The delay in use for what the receiver reports, seconds.
+    pub fn delay_s(&self, src: Source) -> f32 {
+        delay_of(self.set(src).best)
+    }
+    /// The delay the fits alone say (the candidate that explains most), seconds.
+    pub fn free_delay_s(&self, src: Source) -> f32 {
+        delay_of(self.set(src).free())
+    }
+    /// The scale in use.
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+    /// The scale's relative uncertainty: its fit's standard error, `sqrt(sigma^2 kappa / sum
+    /// |D|^2)` for velocity residuals of noise `sigma` (m/s) correlated over `kappa` seconds, a
+    /// stored record's weight counted as `learnt_s` at 15 m/s; at least 0.1 %, at most the
+    /// prior's 5 %.
+    pub fn scale_sd(&self, sigma: f32, kappa: f32) -> f32 {
+        let src = if self.sets[Source::Velocity as usize].learnt_s > 0.0 { Source::Velocity } else { Source::Position };
+        let b = self.set(src).fits.get(self.set(src).best).map_or(0.0, |f| f.b)
+            + self.stored.map_or(0.0, |r| r.learnt_s.min(self.lim.tau_s) * 225.0);
+        if !(b > 0.0) {
+            return 0.05;
+        }
+        let sd = libm::sqrtf(sigma * sigma * kappa.max(1.0) / b) / self.scale.max(0.5);
+        if sd.is_finite() { sd.clamp(0.001, 0.05) } else { 0.05 }
+    }
+    /// The delay's uncertainty, seconds: 0.5 s before any data, shrinking with the square root
+    /// of the minutes learnt (the fits resolve the delay from the accelerations in them) to
+    /// 0.1 s.
+    pub fn delay_sd_s(&self, src: Source) -> f32 {
+        let minutes = self.set(src).learnt_s.max(if self.stored.is_some() { self.learnt_s } else { 0.0 }) / 60.0;
+        if minutes <= 2.0 { 0.5 } else { (0.5 * libm::sqrtf(2.0 / minutes)).clamp(0.1, 0.5) }
+    }
+    /// Learnt enough to judge small drifts: a stored record, or `warmup_s` of this drive.
+    pub fn calibrated(&self) -> bool {
+        self.calibrated
+    }
+    pub fn stored(&self) -> Option<&Record> {
+        self.stored.as_ref()
+    }
+    pub fn learnt_s(&self) -> f32 {
+        self.learnt_s
+    }
+    pub fn contradiction(&self) -> Option<Contradiction> {
+        self.contradiction
+    }
+    /// Per delay candidate of `src`: the delay, how much of the GNSS velocity its fit explains
+    /// and its scale (diagnostics).
+    pub fn fits(&self, src: Source) -> [(f32, f32, f32); DELAYS] {
+        let mut out = [(0.0, 0.0, 0.0); DELAYS];
+        for (k, (o, f)) in out.iter_mut().zip(self.set(src).fits.iter()).enumerate() {
+            *o = (delay_of(k), f.explained(), f.scale().unwrap_or(f32::NAN));
+        }
+        out
+    }
+
+    /// One velocity pair's worth of learning for `src`, `dt` seconds of driving: the GNSS
+    /// velocity `g` and, per delay candidate, the dead reckoning's velocity `d[k]` that much
+    /// earlier, with the DR frame's rotation removed by `derot` (`e^{-i theta}`). The scale
+    /// follows the velocity's fits where the receiver reports a velocity, else the position's.
+    ///
+    /// `sigma` and `kappa` are the velocity residual's noise and correlation time: the scale
+    /// moves, once calibrated, by at most its own uncertainty per minute (at least
+    /// [`CalLimits::scale_rate_per_s`]): a young calibration converges, an old one barely moves.
+    #[allow(clippy::too_many_arguments)]
+    pub fn learn(&mut self, src: Source, g: (f32, f32), d: &[(f32, f32); DELAYS], derot: (f32, f32), dt: f32, sigma: f32, kappa: f32) {
+        if !(dt.is_finite() && dt > 0.0) || !(g.0.is_finite() && g.1.is_finite()) || !d.iter().all(|x| x.0.is_finite() && x.1.is_finite()) {
+            return;
+        }
+        let lim = self.lim;
+        let calibrated = self.calibrated;
+        let Some(set) = self.sets.get_mut(src as usize) else { return };
+        let tau = if calibrated { lim.tau_s } else { set.learnt_s.max(lim.warmup_s * 0.25).min(lim.tau_s) };
+        let keep = libm::expf(-dt / tau.max(1.0));
+        for (f, dk) in set.fits.iter_mut().zip(d.iter()) {
+            f.add(g, *dk, derot, dt, keep);
+        }
+        set.learnt_s += dt;
+        set.dwell_s += dt;
+        let free = set.free();
+        let span = libm::roundf(lim.delay_bound_s / DELAY_STEP_S).max(0.0) as usize;
+        if !calibrated {
+            set.best = free;
+        } else {
+            // Calibrated: the delay moves one candidate per dwell, within its bound around a
+            // stored record.
+            let (lo, hi) = set.anchor.map_or((0, DELAYS - 1), |k0| (k0.saturating_sub(span), (k0 + span).min(DELAYS - 1)));
+            let target = free.clamp(lo, hi);
+            if target != set.best && set.dwell_s >= lim.delay_dwell_s {
+                set.best = if target > set.best { set.best + 1 } else { set.best - 1 };
+                set.dwell_s = 0.0;
+            }
+            if let Some(k0) = set.anchor {
+                // This drive's own fit at the stored delay, never forgotten.
+                if let Some(dk) = d.get(k0) {
+                    set.own.add(g, *dk, derot, dt, 1.0);
+                    set.own_s += dt;
+                }
+                if set.own_s >= lim.contradict_after_s && free.abs_diff(k0) > span + 1 && self.contradiction.is_none() {
+                    self.contradiction = Some(Contradiction::Delay);
+                }
+            }
+        }
+        // The scale: from the velocity's fits where there are any, else the position's.
+        let leads = src == Source::Velocity || self.sets[Source::Velocity as usize].learnt_s <= 0.0;
+        if leads {
+            self.learnt_s += dt;
+            let rate = self.lim.scale_rate_per_s.max(self.scale_sd(sigma, kappa) / 60.0);
+            self.learn_scale(src, dt, rate);
+        }
+        if !self.calibrated && self.learnt_s >= lim.warmup_s {
+            self.calibrated = true;
+        }
+    }
+
+    fn learn_scale(&mut self, src: Source, dt: f32, rate: f32) {
+        let set = &self.sets[src as usize];
+        let Some(s) = set.scale() else { return };
+        if !self.calibrated {
+            self.scale = s;
+            return;
+        }
+        let step = rate * dt * self.scale;
+        let moved = self.scale + (s - self.scale).clamp(-step, step);
+        self.scale = match self.stored {
+            Some(r) => {
+                let b = self.lim.scale_bound * r.scale;
+                moved.max(r.scale - b).min(r.scale + b)
+            }
+            None => moved,
+        };
+        // A stored record that this drive's own data contradicts beyond the bound is reported,
+        // not relearnt (the scale in use stays at its bound).
+        if let (Some(r), None) = (self.stored, self.contradiction) {
+            if let Some(own) = set.own.scale().filter(|_| set.own_s >= self.lim.contradict_after_s) {
+                if libm::fabsf(own / r.scale - 1.0) > self.lim.scale_bound {
+                    self.contradiction = Some(Contradiction::Scale);
+                }
+            }
+        }
+    }
+
+    /// The record's part of what was learnt: the scale, the delays (the velocity's NaN where
+    /// none was learnt) and the seconds learnt.
+    pub fn record_base(&self) -> (f32, [f32; 2], f32) {
+        let vel = &self.sets[Source::Velocity as usize];
+        let dv = if vel.learnt_s > 0.0 || vel.anchor.is_some() { delay_of(vel.best) } else { f32::NAN };
+        (self.scale, [self.delay_s(Source::Position), dv], self.learnt_s)
+    }
+}
+
+fn cmul(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
+    (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+}
+fn conj(a: (f32, f32)) -> (f32, f32) {
+    (a.0, -a.1)
+}
+fn norm2(a: (f32, f32)) -> f32 {
+    a.0 * a.0 + a.1 * a.1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Velocity pairs of a car whose GNSS speed is `true_scale` times its wheel speed,
+    /// straight north.
+    fn feed(c: &mut Calibration, true_scale: f32, secs: usize) {
+        for _ in 0..secs {
+            let d = [(0.0f32, 15.0f32); DELAYS];
+            c.learn(Source::Velocity, (0.0, 15.0 * true_scale), &d, (1.0, 0.0), 1.0, 0.15, 5.0);
+        }
+    }
+
+    fn record() -> Record {
+        Record {
+            scale: 0.99,
+            delay_s: [-0.75, -0.5],
+            learnt_s: 3600.0,
+            drives: 4,
+            gyro_bias_degps: f32::NAN,
+            gyro_bias_weight_s: 0.0,
+            gyro_scale_error: 0.0,
+            gyro_scale_sd: 0.05,
+            noise_s0_m: [1.0; 2],
+            noise_k: [0.01; 2],
+            velocity_sigma_mps: [0.2; 2],
+            nominal_dt_s: 1.0,
+        }
+    }
+
+    #[test]
+    fn a_first_drive_learns_freely_then_only_within_rate() {
+        let mut c = Calibration::new(CalLimits::default());
+        feed(&mut c, 1.03, 100);
+        assert!(!c.calibrated() && (c.scale() - 1.03).abs() < 1e-3);
+        feed(&mut c, 1.03, 30);
+        assert!(c.calibrated());
+        // A spoofer's 2 % more: one minute moves the scale by at most its own uncertainty.
+        let sd = c.scale_sd(0.15, 5.0);
+        assert!(sd < 0.003, "sd {sd}");
+        feed(&mut c, 1.03 * 1.02, 60);
+        assert!(c.scale() - 1.03 <= 1.03 * sd * 1.01, "scale {} sd {sd}", c.scale());
+    }
+
+    #[test]
+    fn a_stored_record_bounds_the_drive_and_is_contradicted_not_relearnt() {
+        let rec = record();
+        let mut c = Calibration::from_record(CalLimits::default(), &rec);
+        assert!(c.calibrated() && c.delay_s(Source::Position) == -0.75 && c.delay_s(Source::Velocity) == -0.5 && c.scale() == 0.99);
+        // The same car: nothing contradicted.
+        feed(&mut c, 0.991, 600);
+        assert_eq!(c.contradiction(), None);
+        assert_eq!(c.record_base().1, [-0.75, -0.5]);
+        // Another tyre (+3 %) from the start of a drive: held at the bound, and reported.
+        let mut c = Calibration::from_record(CalLimits::default(), &rec);
+        feed(&mut c, 0.99 * 1.03, 600);
+        assert!(c.scale() <= 0.99 * 1.01 + 1e-6, "scale {}", c.scale());
+        assert_eq!(c.contradiction(), Some(Contradiction::Scale));
+    }
+
+    #[test]
+    fn delays_are_candidates_of_either_sign() {
+        assert_eq!(delay_of(0), -3.0);
+        assert_eq!(delay_of(ZERO), 0.0);
+        assert_eq!(delay_of(DELAYS - 1), 3.0);
+        assert_eq!(candidate(-0.8), 18);
+        assert_eq!(candidate(f32::NAN), ZERO);
+        assert_eq!(candidate(1e30), DELAYS - 1);
+        let mut r = record();
+        assert!(r.plausible().is_ok());
+        r.delay_s[1] = f32::NAN;
+        assert!(r.plausible().is_ok());
+        r.delay_s[0] = f32::NAN;
+        assert_eq!(r.plausible(), Err("delay_s"));
+    }
+}

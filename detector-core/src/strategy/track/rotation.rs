@@ -1,0 +1,141 @@
+//! The DR frame's rotation against GNSS: a three-state Kalman filter in error-state form.
+//!
+//! The state is the rotation `theta` (rad) left between the dead reckoning's frame and GNSS's,
+//! the correction `omega` (rad/s) to the gyro's standstill bias and the correction `eps` to its
+//! scale. The dead reckoning turns by `(1 + eps) dpsi + omega dt` for a gyro turn `dpsi` (bias
+//! removed), with the current estimates, so `theta` stays put on average; an error `d omega`,
+//! `d eps` in them turns it by `d omega dt + d eps dpsi`, which is how the covariance grows.
+//! `theta` belongs to one stretch of driving (it is the integration constant of the heading);
+//! `omega` and `eps` belong to the car and are part of its calibration.
+
+use super::TrackConfig;
+use core::f32::consts::PI;
+
+/// The largest gyro scale error believed.
+pub(super) const MAX_SCALE_ERROR: f32 = 0.2;
+/// The largest gyro bias believed, deg/s.
+pub(super) const MAX_BIAS_DEGPS: f32 = 2.0;
+
+/// The angle in [-pi, pi]. One remainder, not a loop: a loop that subtracts 2 pi never ends
+/// on a huge angle (hostile input), where `x - 2 pi == x`.
+pub(super) fn wrap_pi(x: f32) -> f32 {
+    if !x.is_finite() {
+        return 0.0;
+    }
+    let r = libm::remainderf(x, 2.0 * PI);
+    if r.is_finite() { r.clamp(-PI, PI) } else { 0.0 }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Rotation {
+    x: [f32; 3],
+    p: [[f32; 3]; 3],
+}
+
+impl Rotation {
+    pub(super) fn new(cfg: &TrackConfig) -> Self {
+        let a = cfg.align_sd_deg.to_radians();
+        let b = cfg.bias_sd_degps.to_radians();
+        let e = cfg.gyro_scale_sd;
+        Rotation { x: [0.0; 3], p: [[a * a, 0.0, 0.0], [0.0, b * b, 0.0], [0.0, 0.0, e * e]] }
+    }
+    /// A filter that starts from a car's stored gyro scale error and its uncertainty
+    /// (the bias is the standstill bias's business, stored beside it).
+    pub(super) fn with_scale(cfg: &TrackConfig, eps: f32, eps_sd: f32) -> Self {
+        let mut r = Rotation::new(cfg);
+        if eps.is_finite() && eps_sd.is_finite() {
+            r.x[2] = eps.clamp(-MAX_SCALE_ERROR, MAX_SCALE_ERROR);
+            let sd = eps_sd.clamp(1e-4, cfg.gyro_scale_sd.max(1e-4));
+            r.p[2][2] = sd * sd;
+        }
+        r
+    }
+    pub(super) fn theta(&self) -> f32 {
+        self.x[0]
+    }
+    pub(super) fn omega(&self) -> f32 {
+        self.x[1]
+    }
+    pub(super) fn scale_error(&self) -> f32 {
+        self.x[2]
+    }
+    pub(super) fn var_theta(&self) -> f32 {
+        self.p[0][0].max(0.0)
+    }
+    pub(super) fn var_scale(&self) -> f32 {
+        self.p[2][2].max(0.0)
+    }
+    /// A new alignment: the rotation unknown to `align_sd_deg`, drift and scale error kept.
+    pub(super) fn realign(&mut self, cfg: &TrackConfig) {
+        let a = cfg.align_sd_deg.to_radians();
+        self.x[0] = 0.0;
+        for k in 0..3 {
+            self.p[0][k] = 0.0;
+            self.p[k][0] = 0.0;
+        }
+        self.p[0][0] = a * a;
+    }
+    /// The DR's turn over `dt` seconds for a gyro turn `dpsi` (bias removed), radians.
+    pub(super) fn corrected_turn(&self, dt: f32, dpsi: f32) -> f32 {
+        (1.0 + self.x[2]) * dpsi + self.x[1] * dt
+    }
+    /// Time update over `dt` seconds in which the gyro turned by `dpsi` radians.
+    pub(super) fn predict(&mut self, dt: f32, dpsi: f32, cfg: &TrackConfig) {
+        let f = [[1.0, dt, dpsi], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        // P = F P F^T + Q
+        let mut fp = [[0.0f32; 3]; 3];
+        for (i, row) in fp.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = (0..3).map(|k| f[i][k] * self.p[k][j]).sum();
+            }
+        }
+        for (prow, fprow) in self.p.iter_mut().zip(fp.iter()) {
+            for (v, frow) in prow.iter_mut().zip(f.iter()) {
+                *v = fprow.iter().zip(frow.iter()).map(|(a, b)| a * b).sum();
+            }
+        }
+        let d2r = (PI / 180.0) * (PI / 180.0);
+        self.p[0][0] += cfg.q_rotation * d2r * dt;
+        self.p[1][1] += cfg.q_bias * d2r * dt;
+        self.p[2][2] += cfg.q_gyro_scale * dt;
+    }
+    /// The innovation of a rotation measurement `phi` and its variance with measurement
+    /// variance `r`.
+    pub(super) fn innovation(&self, phi: f32, r: f32) -> (f32, f32) {
+        (wrap_pi(phi - self.x[0]), self.p[0][0] + r)
+    }
+    /// One measurement of the rotation with variance `r`.
+    pub(super) fn update(&mut self, phi: f32, r: f32, cfg: &TrackConfig) {
+        let (innov, s) = self.innovation(phi, r);
+        if !(s > 0.0 && s.is_finite() && phi.is_finite()) {
+            return;
+        }
+        let k = [self.p[0][0] / s, self.p[1][0] / s, self.p[2][0] / s];
+        for (x, g) in self.x.iter_mut().zip(k.iter()) {
+            *x += g * innov;
+        }
+        self.x[0] = wrap_pi(self.x[0]);
+        let max_omega = MAX_BIAS_DEGPS.to_radians();
+        self.x[1] = self.x[1].max(-max_omega).min(max_omega);
+        self.x[2] = self.x[2].clamp(-MAX_SCALE_ERROR, MAX_SCALE_ERROR);
+        // P = (I - K H) P, H = [1 0 0]
+        let row0 = self.p[0];
+        for (i, gi) in k.iter().enumerate() {
+            for (j, r0) in row0.iter().enumerate() {
+                self.p[i][j] -= gi * r0;
+            }
+        }
+        // Keep P symmetric and its diagonal non-negative.
+        for i in 0..3 {
+            self.p[i][i] = self.p[i][i].max(0.0);
+            for j in 0..i {
+                let m = 0.5 * (self.p[i][j] + self.p[j][i]);
+                self.p[i][j] = m;
+                self.p[j][i] = m;
+            }
+        }
+        if !self.p.iter().flatten().chain(self.x.iter()).all(|v| v.is_finite()) {
+            *self = Rotation::new(cfg);
+        }
+    }
+}

@@ -1,0 +1,417 @@
+//! The velocity-domain sequential test: GNSS velocity against the calibrated dead reckoning's,
+//! epoch by epoch, with the evidence accumulated over a bank of windows.
+//!
+//! # Why velocity
+//! A spoofer who drifts the position keeps the reported velocity consistent with it, so the
+//! drift is in every epoch's GNSS velocity at full size, while a position window needs the
+//! offset to outgrow the integrated dead-reckoning error (Tanil, Khanafseh, Joerger & Pervan,
+//! IEEE TAES 2018, on INS monitors against spoofers that track the vehicle; PX4 issue 27340, a
+//! 5 m/s drift fused for 34 s and 230 m by per-epoch gates).
+//!
+//! # The statistic
+//! Each judged pair gives a residual `r = G - s e^{i theta} D` (GNSS velocity: the receiver's
+//! speed and course where it reports them, else its position difference over a second; `D` the
+//! dead reckoning's velocity at the learnt delay), split into an along-track and, with a gyro,
+//! an across-track channel. Each is normalised, `z = r / sqrt(sigma^2 + v)`, by
+//! - `sigma`, the channel's noise *as it is now*: `sqrt(pi) / 2` times the mean absolute first
+//!   difference of the residual one second apart, over the last [`DIFFS`] seconds (each
+//!   difference clipped at five times the noise before it). It rises within seconds when the
+//!   receiver gets worse (town, trees, multipath, a receiver's own excursions, which last up to
+//!   ten seconds on the css_canedge logger) and falls slowly ([`VelocityConfig::fall_s`]); a
+//!   drift, smooth by nature, changes the residual's level, not its differences, so it cannot
+//!   teach it;
+//! - `v`, the uncertainty of the prediction itself (the scale's, and the frame rotation's).
+//!
+//! `z` is clipped at [`VelocityConfig::clip`] (a single bad fix or a short glitch moves a window
+//! by a bounded amount) and summed, weighted by the seconds each pair covers, in one-second
+//! bins. Over each window `W` of [`WINDOWS_S`] the test is the mean `z` over the window in units
+//! of its standard error, `T = |m| / sqrt(kappa / W + e / (sigma W)^2)`, where `kappa` seconds is
+//! the correlation time of the residual (a one-second sample is not independent of the next)
+//! and `e` the position error of the window's two ends where the GNSS velocity is a position
+//! difference (the sum of a window's position differences is its displacement: a receiver's
+//! position wandering by metres in town looks like a short drift otherwise). With
+//! `N = 2 sum_W 3600 / W` tests per hour (both channels), a budget of `B` false alarms per hour
+//! gives the threshold `h = Phi^-1(1 - B / 2N)`. A window fires once it has stayed above `h` for
+//! [`VelocityConfig::persist_s`] (the banks of finite cumulative monitors of Quartararo &
+//! Langel, NAVIGATION 2022, in their simplest form); three consecutive pairs beyond
+//! [`VelocityConfig::gross`] in the same direction fire at once (a drift of metres per second).
+//! No window is shorter than 10 s: the receivers and cars of our data disagree by 2 m/s for up
+//! to three fixes and by 0.6 m/s for up to ten seconds on their own (css_canedge: the OBD speed
+//! held for 13 s while GNSS slowed), which a shorter window cannot tell from a drift.
+//!
+//! Above `freeze` times `h` the evidence is accumulating: the caller freezes the calibration.
+//!
+//! # Limits
+//! Without a gyro there is no across-track channel: a drift across the road changes the speed
+//! only by `d^2 / 2v` and is invisible until the road turns. Velocity from position differences
+//! is noisier than the receiver's Doppler velocity, so position-only receivers see only faster
+//! drifts. A drift that ramps its velocity up slowly enough is learnt by no one here but is
+//! bounded by the calibration's rates (see `calibration`).
+
+/// The windows of the bank, seconds.
+pub const WINDOWS_S: [f32; WINDOWS] = [10.0, 30.0, 60.0];
+pub const WINDOWS: usize = 3;
+/// One-second bins kept (the longest window, with room).
+const BINS: usize = 64;
+/// First differences (one second apart) the noise is the mean of.
+pub const DIFFS: usize = 8;
+
+/// Tuning of the velocity test. See the module documentation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VelocityConfig {
+    pub enabled: bool,
+    /// False alarms per hour of driving the threshold is derived from.
+    pub budget_per_hour: f32,
+    /// Correlation time of the residual, seconds.
+    pub kappa_s: f32,
+    /// Per-pair clip of `z`.
+    pub clip: f32,
+    /// Three consecutive `|z|` beyond this (and `gross_mps` beyond it in m/s, in the same
+    /// direction) fire at once: a receiver's own glitches last up to three fixes at about 2 m/s
+    /// (css_canedge), a drift of metres per second stays.
+    pub gross: f32,
+    pub gross_mps: f32,
+    /// A window fires once its statistic has stayed above the threshold this long, seconds
+    /// (a single epoch's excursion does not).
+    pub persist_s: f32,
+    /// The share of `h` above which evidence is accumulating (the calibration freezes).
+    pub freeze: f32,
+    /// Along-track pairs are judged above this speed, across-track ones above the second, m/s.
+    pub min_speed_mps: f32,
+    pub min_speed_across_mps: f32,
+    /// Noise floors (along, across), m/s, the noise assumed before any is measured, and how
+    /// slowly the noise falls, seconds.
+    pub floor_mps: [f32; 2],
+    pub prior_mps: f32,
+    pub fall_s: f32,
+    /// A window is judged when it holds at least this share of its length.
+    pub min_cover: f32,
+}
+
+impl Default for VelocityConfig {
+    fn default() -> Self {
+        VelocityConfig {
+            enabled: true,
+            budget_per_hour: 0.001,
+            kappa_s: 6.0,
+            clip: 4.0,
+            gross: 6.0,
+            gross_mps: 2.0,
+            persist_s: 2.0,
+            freeze: 0.5,
+            min_speed_mps: 3.0,
+            min_speed_across_mps: 5.0,
+            floor_mps: [0.1, 0.1],
+            prior_mps: 0.5,
+            fall_s: 60.0,
+            min_cover: 0.5,
+        }
+    }
+}
+
+impl VelocityConfig {
+    /// The threshold `h` for the budget (see the module documentation).
+    pub fn threshold(&self) -> f32 {
+        let tests: f32 = 2.0 * WINDOWS_S.iter().map(|w| 3600.0 / w).sum::<f32>();
+        let p = (self.budget_per_hour.max(1e-9) / tests).clamp(1e-12, 0.5);
+        upper_quantile(0.5 * p)
+    }
+}
+
+/// The standard normal's upper quantile: `x` with `P(Z > x) = q`, by bisection on `erfc`
+/// (computed once per configuration; Newton's method overshoots in the far tail).
+pub fn upper_quantile(q: f32) -> f32 {
+    let q = if q.is_finite() { q.clamp(1e-30, 0.5) } else { 0.5 };
+    let (mut lo, mut hi) = (0.0f32, 12.0f32);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if 0.5 * libm::erfcf(mid * core::f32::consts::FRAC_1_SQRT_2) > q {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// One channel's state.
+#[derive(Clone, Copy, Debug)]
+struct Channel {
+    /// Per second: sum of clipped z times weight, sum of weights.
+    bins: [(f32, f32); BINS],
+    /// The second of the newest bin (seconds after the stretch's start).
+    head: i32,
+    diffs: [f32; DIFFS],
+    n_diffs: usize,
+    next_diff: usize,
+    /// The last pair: time, residual, and the last two unclipped z with their residuals.
+    last: Option<(f32, f32)>,
+    last_sigma_t: Option<f32>,
+    recent: [(f32, f32); 3],
+    /// Since when the largest window statistic has been above the threshold.
+    above_since: Option<f32>,
+    sigma: f32,
+}
+
+impl Channel {
+    fn new(floor: f32) -> Self {
+        Channel { bins: [(0.0, 0.0); BINS], head: i32::MIN, diffs: [0.0; DIFFS], n_diffs: 0, next_diff: 0, last: None, last_sigma_t: None, recent: [(0.0, 0.0); 3], above_since: None, sigma: floor }
+    }
+
+    /// The residual's noise now (see the module documentation): never below what it was less
+    /// its fall, never below the floor. Differences are taken against the residual of about a
+    /// second before, so a 10 Hz receiver's correlated residuals count as a 1 Hz one's.
+    fn update_sigma(&mut self, t: f32, r: f32, cfg: &VelocityConfig, floor: f32) {
+        let dt = self.last_sigma_t.map_or(1.0, |l| t - l);
+        self.last_sigma_t = Some(t);
+        match self.last {
+            Some((tl, rl)) if t - tl >= 0.9 && t - tl <= 2.5 => {
+                if let Some(slot) = self.diffs.get_mut(self.next_diff) {
+                    *slot = libm::fabsf(r - rl).min(5.0 * self.sigma);
+                }
+                self.next_diff = (self.next_diff + 1) % DIFFS;
+                self.n_diffs = (self.n_diffs + 1).min(DIFFS);
+                self.last = Some((t, r));
+            }
+            Some((tl, _)) if t - tl > 0.0 && t - tl < 0.9 => {}
+            _ => self.last = Some((t, r)),
+        }
+        let fallen = self.sigma * libm::expf(-dt.clamp(0.0, 10.0) / cfg.fall_s.max(1.0));
+        let n = self.n_diffs.min(DIFFS);
+        let now = if n >= 4 { 0.886_226_9 * self.diffs.iter().take(n).sum::<f32>() / n as f32 } else { 0.0 };
+        self.sigma = now.max(fallen).max(floor);
+        if !self.sigma.is_finite() {
+            self.sigma = floor;
+        }
+    }
+
+    fn bin_for(&mut self, t: f32) -> Option<&mut (f32, f32)> {
+        let sec = libm::floorf(t);
+        if !sec.is_finite() || libm::fabsf(sec) > 1.0e9 {
+            return None;
+        }
+        let sec = sec as i32;
+        if self.head == i32::MIN || sec < self.head || sec - self.head >= BINS as i32 {
+            self.bins = [(0.0, 0.0); BINS];
+            self.head = sec;
+        }
+        while self.head < sec {
+            self.head += 1;
+            if let Some(b) = self.bins.get_mut(self.head.rem_euclid(BINS as i32) as usize) {
+                *b = (0.0, 0.0);
+            }
+        }
+        self.bins.get_mut(sec.rem_euclid(BINS as i32) as usize)
+    }
+
+    /// `T` of every window (0 where it is not judged). `end_var` (m^2) is the position error of
+    /// a window's two ends where the pairs are position differences (their sum over a window is
+    /// the window's displacement, so its error is the ends' error, not a sum of independent
+    /// ones); 0 for a receiver's own velocity.
+    fn statistic(&self, cfg: &VelocityConfig, end_var: f32) -> [f32; WINDOWS] {
+        let (mut zw, mut w) = (0.0f32, 0.0f32);
+        let mut best = [0.0f32; WINDOWS];
+        if self.head == i32::MIN {
+            return best;
+        }
+        let mut wi = 0usize;
+        for age in 0..BINS as i32 {
+            let Some(b) = self.bins.get(self.head.wrapping_sub(age).rem_euclid(BINS as i32) as usize) else { break };
+            zw += b.0;
+            w += b.1;
+            let Some(&win) = WINDOWS_S.get(wi) else { break };
+            if (age + 1) as f32 >= win {
+                if w >= cfg.min_cover * win && w > 0.0 {
+                    if let Some(b) = best.get_mut(wi) {
+                        // The mean z's variance: kappa / w, and the ends' error in z units.
+                        let ends = end_var.max(0.0) / (self.sigma * self.sigma * w * w).max(1e-9);
+                        *b = libm::fabsf(zw / w) / libm::sqrtf(cfg.kappa_s.max(0.1) / w + ends);
+                    }
+                }
+                wi += 1;
+            }
+        }
+        best
+    }
+}
+
+/// The channels.
+pub const ALONG: usize = 0;
+pub const ACROSS: usize = 1;
+
+/// One judged pair's numbers, for the verdict.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VelocityOutcome {
+    /// The pair's residual (along, across), m/s, where judged.
+    pub residual_mps: [Option<f32>; 2],
+    /// The channels' noise now, m/s.
+    pub sigma_mps: [f32; 2],
+    /// The largest window statistic per channel, every window's, and the threshold.
+    pub t: [f32; 2],
+    pub t_windows: [[f32; WINDOWS]; 2],
+    pub h: f32,
+    /// Which channel fired.
+    pub fired: [bool; 2],
+    /// Evidence is accumulating (above `freeze h`): learning is frozen.
+    pub suspicious: bool,
+    /// The slowest drift (m/s) this test sees within 10 s at the along channel's noise now.
+    pub bound_10s_mps: f32,
+    /// The noise hides drifts under the track check's bound: nothing fires (set by the check).
+    pub blind: bool,
+}
+
+/// The test's state: two channels.
+#[derive(Clone, Copy, Debug)]
+pub struct VelocityTest {
+    cfg: VelocityConfig,
+    h: f32,
+    ch: [Channel; 2],
+    last_t: Option<f32>,
+}
+
+impl VelocityTest {
+    pub fn new(cfg: VelocityConfig) -> Self {
+        VelocityTest { cfg, h: cfg.threshold(), ch: [Channel::new(cfg.floor_mps[0].max(cfg.prior_mps)), Channel::new(cfg.floor_mps[1].max(cfg.prior_mps))], last_t: None }
+    }
+    pub fn config(&self) -> &VelocityConfig {
+        &self.cfg
+    }
+    pub fn h(&self) -> f32 {
+        self.h
+    }
+
+    /// A new stretch: the windows start over; the noise as it is now is kept (the
+    /// environment did not change because the GNSS paused), the pair history is not.
+    pub fn restart(&mut self) {
+        for c in self.ch.iter_mut() {
+            c.bins = [(0.0, 0.0); BINS];
+            c.head = i32::MIN;
+            c.last = None;
+            c.last_sigma_t = None;
+            c.recent = [(0.0, 0.0); 3];
+            c.above_since = None;
+        }
+        self.last_t = None;
+    }
+
+    /// The quiet noise a stored record starts the channels with.
+    pub fn set_sigma(&mut self, sigma: [f32; 2]) {
+        for ((c, s), f) in self.ch.iter_mut().zip(sigma).zip(self.cfg.floor_mps) {
+            if s.is_finite() {
+                c.sigma = s.max(f);
+            }
+        }
+    }
+    pub fn sigma(&self) -> [f32; 2] {
+        [self.ch[ALONG].sigma, self.ch[ACROSS].sigma]
+    }
+
+    /// One judged pair at time `t` (seconds of the stretch): per channel the residual (m/s)
+    /// and the prediction's own variance ((m/s)^2), `None` where that channel is not judged.
+    ///
+    /// `end_var` (m^2): the position error of a window's two ends when the pairs are position
+    /// differences (see [`Channel::statistic`]), 0 when the receiver reports its velocity.
+    pub fn observe(&mut self, t: f32, pairs: [Option<(f32, f32)>; 2], end_var: f32) -> VelocityOutcome {
+        let cfg = self.cfg;
+        let w = self.last_t.map_or(1.0, |l| (t - l).clamp(0.05, 1.0));
+        self.last_t = Some(t);
+        let mut out = VelocityOutcome { h: self.h, ..Default::default() };
+        for (k, pair) in pairs.iter().enumerate() {
+            let (Some(ch), Some(&floor)) = (self.ch.get_mut(k), cfg.floor_mps.get(k)) else { continue };
+            let Some((r, v)) = pair.filter(|(r, v)| r.is_finite() && v.is_finite()) else { continue };
+            ch.update_sigma(t, r, &cfg, floor);
+            let z = r / libm::sqrtf(ch.sigma * ch.sigma + v.max(0.0));
+            let zc = z.clamp(-cfg.clip, cfg.clip);
+            if let Some(b) = ch.bin_for(t) {
+                b.0 += zc * w;
+                b.1 += w;
+            }
+            ch.recent = [ch.recent[1], ch.recent[2], (z, r)];
+            if let Some(o) = out.residual_mps.get_mut(k) {
+                *o = Some(r);
+            }
+        }
+        let h = self.h;
+        for (k, ch) in self.ch.iter_mut().enumerate() {
+            let tw = ch.statistic(&cfg, end_var);
+            let t_w = tw.iter().fold(0.0f32, |a, b| a.max(*b));
+            if let Some(o) = out.t_windows.get_mut(k) {
+                *o = tw;
+            }
+            let s0 = ch.recent[0].0.signum();
+            let gross = ch.recent.iter().all(|(z, r)| z.signum() == s0 && libm::fabsf(*z) > cfg.gross && libm::fabsf(*r) > cfg.gross_mps);
+            let held = if t_w > h { t - *ch.above_since.get_or_insert(t) } else {
+                ch.above_since = None;
+                -1.0
+            };
+            if let (Some(o), Some(f), Some(s)) = (out.t.get_mut(k), out.fired.get_mut(k), out.sigma_mps.get_mut(k)) {
+                *o = t_w;
+                *f = held >= cfg.persist_s || gross;
+                *s = ch.sigma;
+            }
+            out.suspicious |= t_w > cfg.freeze * h || gross;
+        }
+        out.bound_10s_mps = self.h * libm::sqrtf(cfg.kappa_s / WINDOWS_S[1]) * self.ch[ALONG].sigma;
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_threshold_follows_the_budget() {
+        // 0.001 per hour over 2 x (360 + 120 + 60) tests per hour: P(|Z| > h) = 9.3e-7.
+        let h = VelocityConfig::default().threshold();
+        assert!((h - 4.91).abs() < 0.01, "h {h}");
+        assert!((upper_quantile(0.025) - 1.96).abs() < 0.01);
+        assert!(upper_quantile(0.5).abs() < 0.01);
+        assert!(upper_quantile(0.0).is_finite() && upper_quantile(f32::NAN).is_finite());
+    }
+
+    /// White noise of `noise` m/s, then a step of `step` from 300 s: the time to fire.
+    fn time_to_fire(step: f32, noise: f32) -> Option<f32> {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut gauss = || {
+            let mut s = 0.0;
+            for _ in 0..12 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                s += (x >> 40) as f32 / (1u64 << 24) as f32;
+            }
+            s - 6.0
+        };
+        for k in 0..600 {
+            let t = k as f32;
+            let r = noise * gauss() + if t >= 300.0 { step } else { 0.0 };
+            let o = v.observe(t, [Some((r, 0.0)), None], 0.0);
+            if o.fired[ALONG] {
+                return Some(t - 300.0);
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn a_step_is_found_and_noise_alone_is_not() {
+        assert_eq!(time_to_fire(0.0, 0.15), None);
+        // z = 3.3: the 30 s window (T = 7.5 when full) once it has held h for 2 s.
+        assert!(time_to_fire(0.5, 0.15).is_some_and(|t| (0.0..=30.0).contains(&t)));
+        // z = 2: the 60 s window.
+        assert!(time_to_fire(0.3, 0.15).is_some_and(|t| (0.0..=60.0).contains(&t)));
+        // Metres per second: three pairs.
+        assert!(time_to_fire(5.0, 0.15).is_some_and(|t| t <= 2.0));
+    }
+
+    #[test]
+    fn hostile_numbers_end_every_step() {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        for (k, x) in [f32::NAN, f32::INFINITY, 1e30, -1e30, f32::MAX, 0.0].iter().enumerate() {
+            let _ = v.observe(k as f32, [Some((*x, *x)), Some((*x, 0.0))], *x);
+            let _ = v.observe(*x, [Some((1.0, 0.0)), None], 0.0);
+        }
+    }
+}
