@@ -89,21 +89,66 @@ fn hysteresis(state: MotionState, v: f32, stop: f32, mov: f32) -> MotionState {
 }
 
 /// The streaming motion-state check.
+/// Position-derived GNSS speed is taken over at least this baseline, seconds: one epoch's shift
+/// of a 1 Hz receiver carries its position noise twice per second (0.7 m/s rms on the
+/// sddi_commuter logger), a baseline of several epochs a fraction of it.
+const POS_BASELINE_S: f64 = 3.0;
+/// Positions kept for that baseline (enough at 1 Hz; at 10 Hz the baseline is the span kept).
+const POS_KEPT: usize = 4;
+
 #[derive(Clone, Debug)]
 pub struct Motion {
     cfg: MotionConfig,
     wheel: MotionState,
     gnss: MotionState,
     since: Option<(f64, Disagreement)>,
+    /// The last positions (time, position), oldest first.
+    recent: [Option<(f64, crate::geo::LatLon)>; POS_KEPT],
+    /// Mean square of the position-derived GNSS speed while the wheels stand, (m/s)^2: the
+    /// receiver's position noise in speed (learnt only below the moving threshold, so a
+    /// spoofer's motion is never learnt as noise).
+    standing_ms: f32,
 }
+
+/// What the position-derived speed's mean square at standstill starts at, (m/s)^2: 0.75 m/s
+/// rms, four times which is the moving threshold of 3 m/s.
+const STANDING_MS_PRIOR: f32 = 0.75 * 0.75;
+/// The position-derived moving threshold is at least this many times that rms.
+const STANDING_RMS_FACTOR: f32 = 4.0;
 
 impl Motion {
     pub fn new(cfg: MotionConfig) -> Self {
-        Self { cfg, wheel: MotionState::Unknown, gnss: MotionState::Unknown, since: None }
+        Self { cfg, wheel: MotionState::Unknown, gnss: MotionState::Unknown, since: None, recent: [None; POS_KEPT], standing_ms: STANDING_MS_PRIOR }
     }
 
     pub fn reset(&mut self) {
+        let standing_ms = self.standing_ms;
         *self = Motion::new(self.cfg);
+        // The receiver's noise at standstill is the receiver's, not the stretch's.
+        self.standing_ms = standing_ms;
+    }
+
+    /// The speed from the position change over the longest baseline kept, up to
+    /// [`POS_BASELINE_S`] (at least one epoch): `None` without an earlier position.
+    fn position_speed(&mut self, s: &Sample) -> Option<f32> {
+        if !(s.t.is_finite() && s.pos.is_valid()) {
+            self.recent = [None; POS_KEPT];
+            return None;
+        }
+        // Positions kept must be earlier and within the baseline.
+        for slot in self.recent.iter_mut() {
+            if slot.is_some_and(|(t, _)| !(t < s.t) || s.t - t > POS_BASELINE_S + 1.5) {
+                *slot = None;
+            }
+        }
+        let oldest = self.recent.iter().flatten().find(|(t, _)| s.t - t <= POS_BASELINE_S + 1e-3).copied();
+        self.recent.rotate_left(1);
+        if let Some(last) = self.recent.last_mut() {
+            *last = Some((s.t, s.pos));
+        }
+        let (t0, p0) = oldest?;
+        let v = crate::geo::haversine_f32_m(p0, s.pos, crate::geo::EARTH_RADIUS_PAPER_M) / (s.t - t0) as f32;
+        v.is_finite().then_some(v)
     }
 
     /// One epoch. `None` when an input is missing (degraded); the state is then forgotten, so a
@@ -111,26 +156,50 @@ impl Motion {
     pub fn step(&mut self, s: &Sample) -> Option<MotionOutcome> {
         let c = self.cfg;
         let wheel_v = s.wheel_speed().get();
+        let pos_speed = self.position_speed(s);
+        // Without a reported speed: the epoch's shift and the baseline's speed must agree (both
+        // above the moving threshold to move, both below the standing one to stand): position
+        // noise must then fool both, and the baseline's lag touches only the transitions.
         let gnss = match (s.gnss_speed.get(), s.shift_m.get()) {
-            (Some(v), _) => Some((v, c.gnss_stop_mps, c.gnss_move_mps)),
-            (None, Some(d)) if s.dt_s > 0.0 => Some((d / s.dt_s, c.pos_stop_mps, c.pos_move_mps)),
+            (Some(v), _) => Some(((v, v), c.gnss_stop_mps, c.gnss_move_mps)),
+            (None, Some(d)) if s.dt_s > 0.0 => {
+                let v = d / s.dt_s;
+                let b = pos_speed.unwrap_or(v);
+                let mov = c.pos_move_mps.max(STANDING_RMS_FACTOR * libm::sqrtf(self.standing_ms));
+                // While the wheels stand, the position-derived speed is the receiver's noise.
+                if self.wheel == MotionState::Standing && v.is_finite() && v < mov {
+                    let k = (s.dt_s / 30.0).clamp(0.0, 1.0);
+                    self.standing_ms += (v * v - self.standing_ms) * k;
+                    self.standing_ms = self.standing_ms.clamp(0.0, 100.0);
+                }
+                Some(((v.min(b), v.max(b)), c.pos_stop_mps, mov))
+            }
             _ => None,
         };
-        let (Some(wv), Some((gv, gstop, gmove))) = (wheel_v, gnss) else {
+        let (Some(wv), Some(((g_lo, g_hi), gstop, gmove))) = (wheel_v, gnss) else {
             self.reset();
             return None;
         };
-        if !(wv.is_finite() && gv.is_finite()) {
+        if !(wv.is_finite() && g_lo.is_finite() && g_hi.is_finite()) {
             self.reset();
             return None;
         }
         self.wheel = hysteresis(self.wheel, wv, c.wheel_stop_mps, c.wheel_move_mps);
-        self.gnss = hysteresis(self.gnss, gv, gstop, gmove);
+        self.gnss = if g_hi < gstop {
+            MotionState::Standing
+        } else if g_lo > gmove {
+            MotionState::Moving
+        } else {
+            hysteresis(self.gnss, 0.5 * (g_lo + g_hi), gstop, gmove)
+        };
+        // A disagreement needs evidence at this epoch, not a state the hysteresis holds: GNSS
+        // above its moving threshold while the wheels stand (a receiver's noise keeps a
+        // position-derived speed above 1 m/s for seconds after the car stops), or below its
+        // standing threshold while the wheels turn faster than GNSS itself needs to call motion
+        // (or a crawl below the GNSS noise floor would look like a frozen position).
         let now = match (self.wheel, self.gnss) {
-            (MotionState::Standing, MotionState::Moving) => Some(Disagreement::GnssMovingWheelsStanding),
-            // The wheels must also be faster than GNSS itself needs to call motion, or a crawl
-            // below the GNSS noise floor would look like a frozen position.
-            (MotionState::Moving, MotionState::Standing) if wv > gmove => Some(Disagreement::GnssStandingWheelsMoving),
+            (MotionState::Standing, MotionState::Moving) if g_lo > gmove => Some(Disagreement::GnssMovingWheelsStanding),
+            (MotionState::Moving, MotionState::Standing) if wv > gmove && g_hi < gstop => Some(Disagreement::GnssStandingWheelsMoving),
             _ => None,
         };
         let disagree_s = match (now, self.since) {

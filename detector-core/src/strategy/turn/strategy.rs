@@ -15,6 +15,17 @@ use crate::wire::templates::{TemplateSet, TurnClass, QUERY_LEN};
 /// in flash; [`TemplateSet::parse`] validates them in place.
 pub static DEFAULT_TEMPLATES: &[u8] = include_bytes!("../../../models/turn_templates.bin");
 
+/// Without a reported course the GNSS heading is the bearing over at least this much track,
+/// metres.
+const BEARING_BASELINE_M: f32 = 3.0;
+/// The heading check judges a window only when the car covered this much in it, metres: at
+/// walking pace a receiver whose position wanders by metres in town (a smooth 6.5 m error)
+/// turns its bearings by 90 degrees.
+const HEADING_MIN_TRAVEL_M: f32 = 30.0;
+/// ... and stayed above this speed all through it, m/s (slowing to a stop, the bearings of such
+/// a receiver swing by tens of degrees).
+const HEADING_MIN_SPEED_MPS: f32 = 5.0;
+
 /// The heading check also wants the wheel straight this long before its window, beyond the
 /// GNSS lag allowance, seconds (one epoch of a 1 Hz receiver).
 const HEADING_MARGIN_S: f32 = 1.0;
@@ -224,12 +235,13 @@ impl<'a> TurnStrategy<'a> {
             self.last = None;
             return TurnStep::Degraded;
         }
-        // Heading: reported course when moving, else the bearing over >= 3 m of track.
+        // Heading: reported course when moving, else the bearing over >= BEARING_BASELINE_M of
+        // track.
         let moving = s.gnss_speed.get().is_none_or(|v| v >= self.cfg.min_speed_mps);
         match (s.gnss_course.get(), self.heading_anchor) {
             (Some(c), _) if moving && s.gnss_speed.is_valid() => self.heading = Some(c),
             (_, Some(a)) => {
-                if haversine_f32_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= 3.0 {
+                if haversine_f32_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= BEARING_BASELINE_M {
                     self.heading = Some(bearing_f32_deg(a, s.pos));
                     self.heading_anchor = Some(s.pos);
                 }
@@ -361,6 +373,9 @@ impl<'a> TurnStrategy<'a> {
         let end = self.seg.len() - 1;
         let mut from = end;
         let mut implied = 0.0f32;
+        // Distance driven over the window by the wheels (not GNSS's, which position noise
+        // inflates), metres.
+        let mut travel = 0.0f32;
         // Ages in ticks (the ring holds consecutive ticks TICK_S apart since its restart):
         // integer comparisons instead of a soft-float subtraction per tick on the Cortex-M4.
         let ticks_within = |s: f32| (s / TICK_S as f32 + 1e-3) as usize;
@@ -371,7 +386,7 @@ impl<'a> TurnStrategy<'a> {
             }
             // The wheel straight over the window and a margin before it (GNSS headings lag a
             // finished turn by up to an epoch). Unknown (NaN) steering or speed fails too.
-            if !(libm::fabsf(t.steer) < c.settle_deg && t.speed >= c.min_speed_mps) {
+            if !(libm::fabsf(t.steer) < c.settle_deg && t.speed >= HEADING_MIN_SPEED_MPS.max(c.min_speed_mps)) {
                 return None;
             }
             if age > window_ticks {
@@ -379,6 +394,7 @@ impl<'a> TurnStrategy<'a> {
             }
             if i < end {
                 implied += t.implied_deg;
+                travel += t.speed * TICK_S as f32;
             }
             from = i;
         }
@@ -386,6 +402,9 @@ impl<'a> TurnStrategy<'a> {
         let oldest = self.seg.ticks().next()?;
         if ((last.t - oldest.t) as f32) < c.heading_window_s + c.heading_margin_s() - 0.5 {
             return None; // not enough history yet
+        }
+        if !(travel >= HEADING_MIN_TRAVEL_M) {
+            return None; // too slow for the bearings to mean anything
         }
         let change = self.seg.course_change(from, end);
         // One alarm per window.
