@@ -186,7 +186,8 @@ enum Cmd {
     /// Write a clean drive transformed the way a new installation differs (not an attack), in the
     /// common CSV layout. Without options, a nuisance of `--kind` drawn from `--seed`.
     Nuisance {
-        /// delay, speed-course-1hz, wheel-speed, gyro, rate-switch, jitter, outage, combined
+        /// delay, speed-course-1hz, wheel-speed, gyro, rate-switch, jitter, outage, vehicle-late,
+        /// coarse-steering, gnss-noise, combined
         #[arg(long, value_parser = parse_nuisance_kind, default_value = "combined")]
         kind: gnss_data::nuisance::NuisanceKind,
         #[arg(long, default_value_t = 1)]
@@ -218,6 +219,16 @@ enum Cmd {
         /// A GNSS outage START:LENGTH (seconds after the drive's start); repeatable.
         #[arg(long, value_parser = parse_outage)]
         outage: Vec<(f64, f64)>,
+        /// Every vehicle signal this late, seconds.
+        #[arg(long)]
+        vehicle_delay_s: Option<f64>,
+        /// The steering angle in steps of this many degrees.
+        #[arg(long)]
+        steering_step_deg: Option<f64>,
+        /// GNSS position noise TAU:SD (a Gauss-Markov process per axis: time constant, seconds;
+        /// standard deviation, metres).
+        #[arg(long, value_parser = parse_gnss_noise)]
+        gnss_noise: Option<(f64, f64)>,
         path: PathBuf,
         #[arg(short, long)]
         out: PathBuf,
@@ -371,6 +382,12 @@ fn parse_outage(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s.split_once(':').ok_or("expected START:LENGTH in seconds")?;
     let (a, b) = (a.parse::<f64>().map_err(|e| e.to_string())?, b.parse::<f64>().map_err(|e| e.to_string())?);
     if a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0 { Ok((a, b)) } else { Err("expected START >= 0 and LENGTH > 0".into()) }
+}
+
+fn parse_gnss_noise(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(':').ok_or("expected TAU:SD (time constant, seconds; standard deviation, metres)")?;
+    let (a, b) = (a.parse::<f64>().map_err(|e| e.to_string())?, b.parse::<f64>().map_err(|e| e.to_string())?);
+    if a.is_finite() && b.is_finite() && a > 0.0 && b >= 0.0 { Ok((a, b)) } else { Err("expected TAU > 0 and SD >= 0".into()) }
 }
 
 fn parse_attack_kind(s: &str) -> Result<AttackKind, String> {
@@ -548,11 +565,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             eprintln!("wrote {}: {} from t={onset:.2} s ({})", out.display(), kind.name(), a.spec.params);
             Ok(())
         }
-        Cmd::Nuisance { kind, seed, pos_delay_s, vel_delay_s, vel_1hz_lag_s, wheel_scale, gyro_bias_degps, gyro_scale, rate_switch_s, jitter_s, outage, path, out, load } => {
+        Cmd::Nuisance { kind, seed, pos_delay_s, vel_delay_s, vel_1hz_lag_s, wheel_scale, gyro_bias_degps, gyro_scale, rate_switch_s, jitter_s, outage, vehicle_delay_s, steering_step_deg, gnss_noise, path, out, load } => {
             use gnss_data::nuisance::{self, Nuisance};
             let r = input::load(&path, &load.options())?;
             let (samples, _) = replay::synchronize(&r, load.sync());
-            let given = Nuisance { pos_delay_s, vel_delay_s, vel_1hz_lag_s, wheel_scale, wheel_quantised: wheel_scale.is_some(), gyro_bias_degps, gyro_scale, rate_switch_s, jitter_s, outages: outage };
+            let given = Nuisance { pos_delay_s, vel_delay_s, vel_1hz_lag_s, wheel_scale, wheel_quantised: wheel_scale.is_some(), gyro_bias_degps, gyro_scale, rate_switch_s, jitter_s, outages: outage, vehicle_delay_s, steering_step_deg, gnss_noise };
             let n = if given == Nuisance::default() {
                 let dur = samples.last().zip(samples.first()).map_or(0.0, |(a, b)| a.t - b.t);
                 Nuisance::draw(kind, seed, dur, 1.0 / detect::profile_of(&samples).nominal_dt_s as f64)

@@ -10,13 +10,16 @@
 //! | `rate-switch` | the fix rate switching between 10, 5 and 1 Hz (10 Hz drives) | every 20 to 90 s |
 //! | `jitter` | epoch timestamps jittered | +-50 ms |
 //! | `outage` | GNSS silent | 1 to 30 s, up to 4 times |
+//! | `vehicle-late` | every vehicle signal (wheel speed, steering, pedal, yaw rate, acceleration) reported late, as a logger that stamps CAN frames late or a slow gateway does (the sddi_commuter car: 0.5 to 1.2 s) | 0.2 to 1.5 s |
+//! | `coarse-steering` | the steering angle in coarse steps (the sddi_commuter car: 2.88 deg) | 2.5 to 3.5 deg |
+//! | `gnss-noise` | GNSS position error correlated in time, as in town (multipath, trees): a smooth, second-order Gauss-Markov process per axis, as a receiver's filtered solution wanders (its velocity error `sd / tau`); speed and course (Doppler) unchanged | time constant 5 to 30 s, 2 to 8 m |
 //!
 //! `combined` draws each of them with probability one half. Everything is a pure function of
 //! the drive, the parameters and the seed; [`Nuisance`] says exactly what was applied, so one case
 //! can be reproduced from the command line (`host-sim nuisance ...`).
 
 use crate::input::{Event, Replay};
-use detector_core::geo::{angle_diff_deg, wrap_360, LatLon};
+use detector_core::geo::{angle_diff_deg, from_local, wrap_360, LatLon, EARTH_RADIUS_PAPER_M};
 use detector_core::sample::{Fix, Signal};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -33,12 +36,15 @@ pub enum NuisanceKind {
     RateSwitch,
     Jitter,
     Outage,
+    VehicleLate,
+    CoarseSteering,
+    GnssNoise,
     /// Each of the above with probability one half.
     Combined,
 }
 
 impl NuisanceKind {
-    pub const ALL: [NuisanceKind; 8] = [
+    pub const ALL: [NuisanceKind; 11] = [
         NuisanceKind::Delay,
         NuisanceKind::SpeedCourse1Hz,
         NuisanceKind::WheelSpeed,
@@ -46,6 +52,9 @@ impl NuisanceKind {
         NuisanceKind::RateSwitch,
         NuisanceKind::Jitter,
         NuisanceKind::Outage,
+        NuisanceKind::VehicleLate,
+        NuisanceKind::CoarseSteering,
+        NuisanceKind::GnssNoise,
         NuisanceKind::Combined,
     ];
     pub fn name(self) -> &'static str {
@@ -57,6 +66,9 @@ impl NuisanceKind {
             NuisanceKind::RateSwitch => "rate-switch",
             NuisanceKind::Jitter => "jitter",
             NuisanceKind::Outage => "outage",
+            NuisanceKind::VehicleLate => "vehicle-late",
+            NuisanceKind::CoarseSteering => "coarse-steering",
+            NuisanceKind::GnssNoise => "gnss-noise",
             NuisanceKind::Combined => "combined",
         }
     }
@@ -87,6 +99,13 @@ pub struct Nuisance {
     pub jitter_s: Option<f64>,
     /// GNSS outages: (start, length), seconds after the drive's first event.
     pub outages: Vec<(f64, f64)>,
+    /// Every vehicle signal reported this late, seconds.
+    pub vehicle_delay_s: Option<f64>,
+    /// The steering angle rounded to steps of this many degrees.
+    pub steering_step_deg: Option<f64>,
+    /// GNSS position error: a Gauss-Markov process per axis of this time constant, seconds, and
+    /// standard deviation, metres.
+    pub gnss_noise: Option<(f64, f64)>,
 }
 
 impl Nuisance {
@@ -124,7 +143,18 @@ impl Nuisance {
         if pick(NuisanceKind::Jitter, &mut rng) {
             n.jitter_s = Some(0.05);
         }
-        if pick(NuisanceKind::Outage, &mut rng) && duration_s > 40.0 {
+        // Drawn after the older kinds, so their draws (and every older case) are unchanged.
+        let outage = pick(NuisanceKind::Outage, &mut rng);
+        if pick(NuisanceKind::VehicleLate, &mut rng) {
+            n.vehicle_delay_s = Some(rng.random_range(0.2..1.5));
+        }
+        if pick(NuisanceKind::CoarseSteering, &mut rng) {
+            n.steering_step_deg = Some(rng.random_range(2.5..3.5));
+        }
+        if pick(NuisanceKind::GnssNoise, &mut rng) {
+            n.gnss_noise = Some((rng.random_range(5.0..30.0), rng.random_range(2.0..8.0)));
+        }
+        if outage && duration_s > 40.0 {
             for _ in 0..rng.random_range(1..=4) {
                 let len = rng.random_range(1.0..30.0f64).min(duration_s / 4.0);
                 n.outages.push((rng.random_range(5.0..(duration_s - len).max(6.0)), len));
@@ -160,6 +190,15 @@ impl Nuisance {
         }
         for (a, l) in &self.outages {
             p.push(format!("outage {l:.1} s at {a:.0} s"));
+        }
+        if let Some(d) = self.vehicle_delay_s {
+            p.push(format!("vehicle signals {d:.2} s late"));
+        }
+        if let Some(q) = self.steering_step_deg {
+            p.push(format!("steering in {q:.2} deg steps"));
+        }
+        if let Some((tau, sd)) = self.gnss_noise {
+            p.push(format!("GNSS position noise {sd:.1} m correlated over {tau:.0} s"));
         }
         if p.is_empty() { "nothing".into() } else { p.join("; ") }
     }
@@ -198,7 +237,27 @@ impl Track<'_> {
     }
 }
 
-/// The drive with the nuisance applied (`seed` draws the rate segments and the jitter).
+/// One step of `h` seconds of a second-order (critically damped) Gauss-Markov process per axis,
+/// `(position, velocity)`: correlation time `tau`, position standard deviation `sd`, velocity
+/// standard deviation `sd / tau`. Smooth, as a receiver's filtered position error is (a
+/// first-order process would jump by metres from one fix to the next). Euler-Maruyama.
+fn gm2_step((x, v): (f64, f64), tau: f64, sd: f64, h: f64, rng: &mut ChaCha8Rng) -> (f64, f64) {
+    let w = 1.0 / tau;
+    // Stationary var(x) = q^2 / (4 w^3).
+    let q = sd * (4.0 * w * w * w).sqrt();
+    let a = -w * w * x - 2.0 * w * v;
+    (x + v * h, v + a * h + q * h.sqrt() * gauss(rng))
+}
+
+/// A standard normal draw (Box-Muller).
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    let u: f64 = rng.random_range(1e-12..1.0);
+    let v: f64 = rng.random_range(0.0..1.0);
+    (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+}
+
+/// The drive with the nuisance applied (`seed` draws the rate segments, the jitter and the
+/// position noise).
 pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0061_7070_6c79);
     let fixes: Vec<Fix> = r.fixes().copied().collect();
@@ -210,6 +269,7 @@ pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
         let mut period = 0.0f64;
         let mut last_kept = f64::NEG_INFINITY;
         let mut last_t = f64::NEG_INFINITY;
+        let (mut gm, mut gm_t) = ([(0.0f64, 0.0f64); 2], f64::NEG_INFINITY);
         for f in &fixes {
             if n.outages.iter().any(|&(a, l)| (t0 + a..t0 + a + l).contains(&f.t)) {
                 continue;
@@ -244,6 +304,21 @@ pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
                 let k = ((f.t - t0).floor()).max(0.0) + t0;
                 (g.speed_mps, g.course_deg) = track.vel(k - lag);
             }
+            if let Some((tau, sd)) = n.gnss_noise {
+                if !gm_t.is_finite() {
+                    // Start in the stationary state.
+                    gm = [(sd * gauss(&mut rng), sd / tau * gauss(&mut rng)), (sd * gauss(&mut rng), sd / tau * gauss(&mut rng))];
+                    gm_t = f.t;
+                }
+                while gm_t < f.t {
+                    let h = (f.t - gm_t).min(0.05);
+                    for axis in gm.iter_mut() {
+                        *axis = gm2_step(*axis, tau, sd, h, &mut rng);
+                    }
+                    gm_t += h;
+                }
+                g.pos = from_local(g.pos, gm[0].0, gm[1].0, EARTH_RADIUS_PAPER_M);
+            }
             if let Some(j) = n.jitter_s {
                 g.t = (f.t + rng.random_range(-j..j)).max(last_t + 1e-3);
             }
@@ -251,23 +326,25 @@ pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
             events.push(Event::Fix(g));
         }
     }
-    // Vehicle signals.
+    // Vehicle signals: scaled, biased, quantised, then reported late.
+    let late = n.vehicle_delay_s.unwrap_or(0.0);
     let wheel: Vec<(f64, f32)> = r.events.iter().filter_map(|e| match *e {
         Event::Obs { sig: Signal::WheelSpeed, t, v } => Some((t, v)),
         _ => None,
     }).collect();
     for e in &r.events {
-        match *e {
-            Event::Fix(_) => {}
-            Event::Obs { sig: Signal::WheelSpeed, .. } if n.wheel_quantised => {}
-            Event::Obs { sig: Signal::WheelSpeed, t, v } => events.push(Event::Obs { sig: Signal::WheelSpeed, t, v: v * n.wheel_scale.unwrap_or(1.0) as f32 }),
-            Event::Obs { sig: Signal::YawRate, t, v } => events.push(Event::Obs {
-                sig: Signal::YawRate,
-                t,
-                v: v * n.gyro_scale.unwrap_or(1.0) as f32 + n.gyro_bias_degps.unwrap_or(0.0) as f32,
-            }),
-            o => events.push(o),
-        }
+        let Event::Obs { sig, t, v } = *e else { continue };
+        let v = match sig {
+            Signal::WheelSpeed if n.wheel_quantised => continue,
+            Signal::WheelSpeed => v * n.wheel_scale.unwrap_or(1.0) as f32,
+            Signal::YawRate => v * n.gyro_scale.unwrap_or(1.0) as f32 + n.gyro_bias_degps.unwrap_or(0.0) as f32,
+            Signal::Steering => match n.steering_step_deg {
+                Some(q) => ((v as f64 / q).round() * q) as f32,
+                None => v,
+            },
+            _ => v,
+        };
+        events.push(Event::Obs { sig, t: t + late, v });
     }
     if n.wheel_quantised && wheel.len() >= 2 {
         // An OBD speed: sampled at 2 Hz where the wheel speed was seen within 1 s, scaled,
@@ -281,7 +358,7 @@ pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
             if t - pa.0 <= 1.0 && pb.0 - t <= 1.0 {
                 let w = if pb.0 > pa.0 { ((t - pa.0) / (pb.0 - pa.0)) as f32 } else { 0.0 };
                 let v = (pa.1 + (pb.1 - pa.1) * w) * n.wheel_scale.unwrap_or(1.0) as f32;
-                events.push(Event::Obs { sig: Signal::WheelSpeed, t, v: (v / step).round() * step });
+                events.push(Event::Obs { sig: Signal::WheelSpeed, t: t + late, v: (v / step).round() * step });
             }
             t += 0.5;
         }
