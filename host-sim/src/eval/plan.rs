@@ -81,9 +81,8 @@ pub fn plan(drives: &[Drive], o: &EvalOptions) -> Vec<(AttackKind, usize, f64, u
     out
 }
 
-/// Drift rates of the sweep, m/s: the range and beyond it, to find what is detected
-/// within 10 s.
-pub const DRIFT_SWEEP_MPS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 4.0, 8.0];
+/// Drift rates of the sweep, m/s: from 0.2 m/s (the slowest the targets name) to 8 m/s.
+pub const DRIFT_SWEEP_MPS: [f64; 7] = [0.2, 0.3, 0.5, 1.0, 2.0, 4.0, 8.0];
 
 /// How many scenarios of `kind` the data can host: every candidate onset of every drive with
 /// wheel speed.

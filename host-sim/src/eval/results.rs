@@ -196,25 +196,62 @@ pub struct Quantization {
 #[derive(Clone, Debug, Serialize)]
 pub struct DriftSweepPoint {
     pub rate_mps: f64,
-    pub along_scenarios: usize,
-    pub along_within_10s: usize,
-    pub across_scenarios: usize,
-    pub across_within_10s: usize,
-    /// The same within 30 s, and per receiver class (`10hz`, `1hz`).
-    pub along_within_30s: usize,
-    pub across_within_30s: usize,
+    /// Per receiver kind: `velocity` (the receiver reports speed and course) and `position`
+    /// (position only).
     pub by_class: BTreeMap<&'static str, SweepCounts>,
+    /// Per source.
+    pub by_source: BTreeMap<String, SweepCounts>,
 }
 
-/// Slow drifts of one rate and receiver class: scenarios, and detected within 10 and 30 s.
+/// Slow drifts of one rate, along and across the road.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct SweepCounts {
-    pub along: usize,
-    pub along_within_10s: usize,
-    pub along_within_30s: usize,
-    pub across: usize,
-    pub across_within_10s: usize,
-    pub across_within_30s: usize,
+    pub along: SweepDirection,
+    pub across: SweepDirection,
+}
+
+/// Slow drifts of one rate in one direction: scenarios, detected within 10, 30 and 60 s, and how
+/// far the spoofer had moved the car at the alarm (`pull_off_m`, rate times time to detect;
+/// the percentiles count an undetected scenario as beyond any finite offset).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SweepDirection {
+    pub scenarios: usize,
+    pub within_10s: usize,
+    pub within_30s: usize,
+    pub within_60s: usize,
+    pub detected: usize,
+    pub pull_off_median_m: Option<f64>,
+    pub pull_off_p95_m: Option<f64>,
+    pub pull_off_max_m: Option<f64>,
+    #[serde(skip)]
+    pub pull_offs: Vec<f64>,
+}
+
+impl SweepDirection {
+    pub fn add(&mut self, rate: f64, ttd_s: Option<f64>) {
+        self.scenarios += 1;
+        let hit = |w: f64| ttd_s.is_some_and(|t| t <= w) as usize;
+        self.within_10s += hit(10.0);
+        self.within_30s += hit(30.0);
+        self.within_60s += hit(60.0);
+        self.detected += ttd_s.is_some() as usize;
+        self.pull_offs.push(ttd_s.map_or(f64::INFINITY, |t| rate * t.max(0.0)));
+    }
+    /// Fills the percentiles from the pull-offs.
+    pub fn finish(&mut self) {
+        let mut v = self.pull_offs.clone();
+        v.sort_by(f64::total_cmp);
+        let q = |p: f64| -> Option<f64> {
+            if v.is_empty() {
+                return None;
+            }
+            let i = ((p * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
+            v.get(i).copied().filter(|x| x.is_finite())
+        };
+        self.pull_off_median_m = q(0.5);
+        self.pull_off_p95_m = q(0.95);
+        self.pull_off_max_m = q(1.0);
+    }
 }
 
 /// One attack kind on one held-out source.
@@ -255,6 +292,8 @@ pub struct NuisanceStats {
     pub false_alarms: usize,
     /// Epochs at which each strategy fired.
     pub fired_epochs: BTreeMap<&'static str, usize>,
+    /// Epochs each reason code was given at an epoch where a strategy fired.
+    pub fired_reasons: BTreeMap<&'static str, usize>,
     /// The runs that raised one: drive, seed, what was applied.
     pub false_alarm_runs: Vec<String>,
 }
@@ -273,11 +312,16 @@ pub struct NuisanceTotal {
 /// The slow drift's limits in one receiver class and direction.
 #[derive(Clone, Debug, Serialize)]
 pub struct DriftLimit {
-    /// The smallest swept rate found in at least 95 % of the scenarios within 10 s, and 30 s.
+    /// The smallest swept rate found in at least 95 % of the scenarios within 10 s, 30 s and
+    /// 60 s (every faster rate too).
     pub rate_95_within_10s_mps: Option<f64>,
     pub rate_95_within_30s_mps: Option<f64>,
-    /// The rate whose 10 s offset equals the track check's threshold on the clean drives of this
-    /// class (median over their judged epochs): what the sensors' measured noise allows.
+    pub rate_95_within_60s_mps: Option<f64>,
+    /// The largest pull-off p95 over the rates from 0.2 m/s, metres (None: some rate is not
+    /// found in 95 % at all).
+    pub pull_off_p95_max_m: Option<f64>,
+    /// The rate whose 10 s offset equals the position windows' threshold on the clean drives of
+    /// this class (median over their judged epochs).
     pub bound_10s_mps: Option<f64>,
     pub scenarios_per_rate: usize,
 }

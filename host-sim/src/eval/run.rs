@@ -46,7 +46,7 @@ fn hours_ran(v: &[Verdict]) -> f64 {
 /// Hours of epochs at which the track check judged a window.
 fn hours_track_judged(v: &[Verdict]) -> f64 {
     v.windows(2)
-        .filter(|w| w[1].track.is_some_and(|t| t.windows.iter().any(Option::is_some)))
+        .filter(|w| w[1].track.is_some_and(|t| t.judging))
         .map(|w| (w[1].t - w[0].t).clamp(0.0, 3.0))
         .sum::<f64>()
         / 3600.0
@@ -115,49 +115,45 @@ pub fn run_scenario_with(d: &Drive, kind: AttackKind, onset: f64, seed: u64, idx
     }
 }
 
+/// What a drive's receiver reports: `velocity` (speed and course) or `position` only.
+pub fn receiver_class(d: &Drive) -> &'static str {
+    if d.samples.iter().any(|s| s.gnss_speed.is_valid() && s.gnss_course.is_valid()) { "velocity" } else { "position" }
+}
+
 /// The slow-drift scenarios of the plan replayed at each rate of [`DRIFT_SWEEP_MPS`].
 pub fn drift_sweep(drives: &[Drive], o: &EvalOptions, folds: &Folds) -> Vec<DriftSweepPoint> {
     let drifts: Vec<_> = plan(drives, o).into_iter().filter(|p| p.0 == AttackKind::SlowDrift).collect();
     DRIFT_SWEEP_MPS
         .iter()
         .map(|&rate| {
-            // (along, class, detected within 10 s, within 30 s)
-            let runs: Vec<(bool, &'static str, bool, bool)> = drifts
+            // (along, class, source, time to detect)
+            let runs: Vec<(bool, &'static str, String, Option<f64>)> = drifts
                 .par_iter()
                 .enumerate()
                 .map(|(n, &(k, i, t, s))| {
                     let sc = run_scenario_with(&drives[i], k, t, s, n, o, folds, &AttackParams::drift(rate));
-                    let class = if drives[i].profile.nominal_dt_s < 0.5 { "10hz" } else { "1hz" };
-                    (sc.params.contains("along"), class, sc.ttd_s.is_some_and(|x| x <= 10.0), sc.ttd_s.is_some_and(|x| x <= 30.0))
+                    (sc.params.contains("along"), receiver_class(&drives[i]), drives[i].source.clone(), sc.ttd_s)
                 })
                 .collect();
             let mut by_class: BTreeMap<&'static str, SweepCounts> = BTreeMap::new();
-            for &(along, class, w10, w30) in &runs {
-                let c = by_class.entry(class).or_default();
-                if along {
-                    (c.along, c.along_within_10s, c.along_within_30s) = (c.along + 1, c.along_within_10s + w10 as usize, c.along_within_30s + w30 as usize);
-                } else {
-                    (c.across, c.across_within_10s, c.across_within_30s) = (c.across + 1, c.across_within_10s + w10 as usize, c.across_within_30s + w30 as usize);
+            let mut by_source: BTreeMap<String, SweepCounts> = BTreeMap::new();
+            for (along, class, source, ttd) in runs {
+                for c in [by_class.entry(class).or_default(), by_source.entry(source).or_default()] {
+                    if along { c.along.add(rate, ttd) } else { c.across.add(rate, ttd) }
                 }
             }
-            let sum = |f: fn(&SweepCounts) -> usize| by_class.values().map(f).sum::<usize>();
-            DriftSweepPoint {
-                rate_mps: rate,
-                along_scenarios: sum(|c| c.along),
-                along_within_10s: sum(|c| c.along_within_10s),
-                across_scenarios: sum(|c| c.across),
-                across_within_10s: sum(|c| c.across_within_10s),
-                along_within_30s: sum(|c| c.along_within_30s),
-                across_within_30s: sum(|c| c.across_within_30s),
-                by_class,
+            for c in by_class.values_mut().chain(by_source.values_mut()) {
+                c.along.finish();
+                c.across.finish();
             }
+            DriftSweepPoint { rate_mps: rate, by_class, by_source }
         })
         .collect()
 }
 
 /// One nuisance run: its kind, (hours the track check judged, hours any strategy ran), alarm
 /// episodes, what was applied, epochs each strategy fired.
-type NuisanceRun = (NuisanceKind, (f64, f64), usize, String, BTreeMap<&'static str, usize>);
+type NuisanceRun = (NuisanceKind, (f64, f64), usize, String, BTreeMap<&'static str, usize>, BTreeMap<&'static str, usize>);
 
 /// The nuisance suite: every drive with wheel speed, `variants` draws of every nuisance kind
 /// (seeded), judged with its source's fold. Returns per kind and in total.
@@ -180,20 +176,27 @@ pub fn nuisance_suite(drives: &[Drive], o: &EvalOptions, folds: &Folds, variants
             let v = verdicts(d, &samples, o, folds);
             progress();
             let mut fired = BTreeMap::new();
-            for x in &v {
+            let mut reasons = BTreeMap::new();
+            for x in v.iter().filter(|x| !x.fired.is_empty()) {
                 for st in x.fired.iter() {
                     *fired.entry(st.name()).or_insert(0) += 1;
                 }
+                for r in x.reasons.iter() {
+                    *reasons.entry(r.name()).or_insert(0) += 1;
+                }
             }
-            (k, (hours_track_judged(&v), hours_ran(&v)), alarm_episodes(&v), format!("{} seed {seed}: {}", d.name, n.describe()), fired)
+            (k, (hours_track_judged(&v), hours_ran(&v)), alarm_episodes(&v), format!("{} seed {seed}: {}", d.name, n.describe()), fired, reasons)
         })
         .collect();
     let mut per: BTreeMap<&'static str, NuisanceStats> = BTreeMap::new();
     let mut total = NuisanceTotal::default();
-    for (k, h, fa, what, fired) in runs {
+    for (k, h, fa, what, fired, reasons) in runs {
         let s = per.entry(k.name()).or_default();
         for (st, n) in fired {
             *s.fired_epochs.entry(st).or_insert(0) += n;
+        }
+        for (r, n) in reasons {
+            *s.fired_reasons.entry(r).or_insert(0) += n;
         }
         s.runs += 1;
         s.hours += h.0;
@@ -359,7 +362,7 @@ pub fn full(drives: Vec<Drive>, o: &EvalOptions, data: &str, data_dir: &str, nui
 pub fn track_bound_10s_mps(drives: &[Drive], class: &str, o: &EvalOptions, folds: &Folds) -> Option<f64> {
     let mut th: Vec<f64> = drives
         .par_iter()
-        .filter(|d| d.has_wheel_speed() && (if d.profile.nominal_dt_s < 0.5 { "10hz" } else { "1hz" }) == class)
+        .filter(|d| d.has_wheel_speed() && receiver_class(d) == class)
         .flat_map(|d| verdicts(d, &d.samples, o, folds).into_iter().filter_map(|v| detect::track_threshold_m(&v)).map(|t| t as f64 / 10.0).collect::<Vec<_>>())
         .collect();
     th.sort_by(f64::total_cmp);

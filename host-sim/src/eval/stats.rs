@@ -199,34 +199,49 @@ pub fn poisson_upper95(k: usize, hours: f64) -> f64 {
     ChiSquared::new(2.0 * (k as f64 + 1.0)).map_or(f64::INFINITY, |c| c.inverse_cdf(0.95) / (2.0 * hours))
 }
 
-/// The smallest swept rate detected in at least 95 % of its scenarios within `within`.
-fn rate_95(sweep: &[DriftSweepPoint], class: &str, along: bool, within_30: bool) -> Option<f64> {
+/// The smallest swept rate detected in at least 95 % of its scenarios within `within` seconds,
+/// every faster swept rate too.
+fn rate_95(sweep: &[DriftSweepPoint], class: &str, along: bool, within: u32) -> Option<f64> {
     let mut pts: Vec<&DriftSweepPoint> = sweep.iter().collect();
     pts.sort_by(|a, b| a.rate_mps.total_cmp(&b.rate_mps));
-    pts.into_iter().find_map(|p| {
+    let ok = |p: &DriftSweepPoint| -> Option<bool> {
         let c = p.by_class.get(class)?;
-        let (n, hit) = match (along, within_30) {
-            (true, false) => (c.along, c.along_within_10s),
-            (true, true) => (c.along, c.along_within_30s),
-            (false, false) => (c.across, c.across_within_10s),
-            (false, true) => (c.across, c.across_within_30s),
+        let d = if along { &c.along } else { &c.across };
+        let hit = match within {
+            10 => d.within_10s,
+            30 => d.within_30s,
+            _ => d.within_60s,
         };
-        (n > 0 && hit as f64 >= 0.95 * n as f64).then_some(p.rate_mps)
-    })
+        (d.scenarios > 0).then(|| hit as f64 >= 0.95 * d.scenarios as f64)
+    };
+    let mut best = None;
+    for p in pts.iter().rev() {
+        match ok(p) {
+            Some(true) => best = Some(p.rate_mps),
+            Some(false) => break,
+            None => {}
+        }
+    }
+    best
 }
 
-/// The slow drift's limits per receiver class (`10hz`, `1hz`) and direction, with the bound the
-/// track check's thresholds on the class's clean drives allow (`bound(class)`, m/s).
+/// The slow drift's limits per receiver class (`velocity`, `position`) and direction, with the
+/// bound the position windows' thresholds on the class's clean drives allow (`bound(class)`).
 pub fn drift_limits(sweep: &[DriftSweepPoint], bound: impl Fn(&str) -> Option<f64>) -> BTreeMap<&'static str, BTreeMap<&'static str, DriftLimit>> {
     let mut out = BTreeMap::new();
-    for class in ["10hz", "1hz"] {
+    for class in ["velocity", "position"] {
         let bound = bound(class);
         let mut m = BTreeMap::new();
         for (dir, along) in [("along", true), ("across", false)] {
-            let n = sweep.first().and_then(|p| p.by_class.get(class)).map_or(0, |c| if along { c.along } else { c.across });
+            let pick = |p: &DriftSweepPoint| p.by_class.get(class).map(|c| if along { c.along.clone() } else { c.across.clone() });
+            let n = sweep.first().and_then(pick).map_or(0, |d| d.scenarios);
+            let p95: Vec<Option<f64>> = sweep.iter().filter(|p| p.rate_mps >= 0.2 - 1e-9).filter_map(pick).filter(|d| d.scenarios > 0).map(|d| d.pull_off_p95_m).collect();
+            let pull_off_p95_max_m = if p95.is_empty() || p95.iter().any(Option::is_none) { None } else { p95.into_iter().flatten().fold(None, |a: Option<f64>, b| Some(a.map_or(b, |a| a.max(b)))) };
             m.insert(dir, DriftLimit {
-                rate_95_within_10s_mps: rate_95(sweep, class, along, false),
-                rate_95_within_30s_mps: rate_95(sweep, class, along, true),
+                rate_95_within_10s_mps: rate_95(sweep, class, along, 10),
+                rate_95_within_30s_mps: rate_95(sweep, class, along, 30),
+                rate_95_within_60s_mps: rate_95(sweep, class, along, 60),
+                pull_off_p95_max_m,
                 bound_10s_mps: bound,
                 scenarios_per_rate: n,
             });
