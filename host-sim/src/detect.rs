@@ -3,6 +3,7 @@
 use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::profile::{self, ReceiverProfile};
 use detector_core::sample::Sample;
+use detector_core::strategy::track::calibration::Record;
 use detector_core::strategy::location_shift::{KinematicPredictor, Predictor, ShiftPredictor, WithFallback};
 use detector_core::strategy::location_shift::lstm::{LstmModel, LstmPredictor, DEFAULT_MODEL};
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
@@ -83,9 +84,23 @@ pub fn config(p: &ReceiverProfile, kind: PredictorKind) -> Config {
     c
 }
 
-fn run_detector<P: ShiftPredictor>(samples: &[Sample], cfg: Config, p: P, set: TemplateSet) -> Vec<Verdict> {
+fn run_detector<P: ShiftPredictor>(samples: &[Sample], cfg: Config, p: P, set: TemplateSet, record: Option<&Record>) -> (Vec<Verdict>, Option<Record>) {
     let mut d = Detector::new(cfg, p).with_turns(set);
-    samples.iter().map(|s| d.step(s)).collect()
+    if let Some(r) = record {
+        d = d.with_calibration(r);
+    }
+    let v = samples.iter().map(|s| d.step(s)).collect();
+    (v, d.calibration_record())
+}
+
+/// [`run_with_templates`] on a car whose calibration was stored (`record`), returning the
+/// record to store after this drive too (`None`: nothing to store, see
+/// [`Detector::calibration_record`]).
+pub fn run_calibrated(samples: &[Sample], cfg: Config, kind: PredictorKind, set: TemplateSet, record: Option<&Record>) -> (Vec<Verdict>, Option<Record>) {
+    match kind {
+        PredictorKind::LstmF32 => run_detector(samples, cfg, WithFallback::new(LstmPredictor::reference(default_lstm_f32())), set, record),
+        k => run_detector(samples, cfg, predictor(k), set, record),
+    }
 }
 
 /// Verdicts of the full detector (all strategies) with this predictor, one per sample.
@@ -95,10 +110,7 @@ pub fn run_with(samples: &[Sample], cfg: Config, kind: PredictorKind) -> Vec<Ver
 
 /// [`run_with`] with these turn templates.
 pub fn run_with_templates(samples: &[Sample], cfg: Config, kind: PredictorKind, set: TemplateSet) -> Vec<Verdict> {
-    match kind {
-        PredictorKind::LstmF32 => run_detector(samples, cfg, WithFallback::new(LstmPredictor::reference(default_lstm_f32())), set),
-        k => run_detector(samples, cfg, predictor(k), set),
-    }
+    run_calibrated(samples, cfg, kind, set, None).0
 }
 
 /// Verdicts with the kinematic predictor (calibration, and where a test needs it).

@@ -116,6 +116,12 @@ fn speed(s: &Sample) -> Option<f32> {
 pub const STEALTHY_FIRST_ONSET_S: f64 = 60.0;
 
 pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
+    candidate_onsets_from(kind, samples, None)
+}
+
+/// [`candidate_onsets`] with the earliest onset of the moving kinds `first_s` into the drive
+/// (a car that starts calibrated can be attacked from its first minute).
+pub fn candidate_onsets_from(kind: AttackKind, samples: &[Sample], first_s: Option<f64>) -> Vec<f64> {
     let moving = |s: &Sample| speed(s).is_some_and(|v| v > 3.0);
     let mut out = Vec::new();
     if samples.len() < 20 {
@@ -132,7 +138,7 @@ pub fn candidate_onsets(kind: AttackKind, samples: &[Sample]) -> Vec<f64> {
         | AttackKind::Jump => {
             // Every 20 s of driving with at least 15 s of drive left; the stealthy kinds, which
             // only the track check can see, after its warm-up.
-            let first = if AttackKind::STEALTHY.contains(&kind) { STEALTHY_FIRST_ONSET_S } else { 10.0 };
+            let first = first_s.unwrap_or(if AttackKind::STEALTHY.contains(&kind) { STEALTHY_FIRST_ONSET_S } else { 10.0 });
             let mut next = samples[0].t + first;
             for s in samples {
                 if s.t >= next && moving(s) && t_end - s.t > 15.0 {

@@ -11,6 +11,7 @@
 //! [`results`] (what a run reports), [`stats`] (how verdicts become those numbers), [`report`]
 //! (report.json, report.md, figures).
 
+pub mod calibrated;
 pub mod fold;
 pub mod plan;
 pub mod report;

@@ -137,6 +137,10 @@ pub struct Report {
     /// Strategy 1's predictors side by side (filled by the command line).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub predictors: Option<BTreeMap<&'static str, PredictorStats>>,
+    /// Calibrated cars: each source's last drive judged with the calibration its earlier drives
+    /// left (filled by the command line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibrated: Option<BTreeMap<String, CalibratedCar>>,
     /// The int8 LSTM against its f32 original (filled by the command line).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub quantization: Option<Quantization>,
@@ -324,4 +328,47 @@ pub struct DriftLimit {
     /// this class (median over their judged epochs).
     pub bound_10s_mps: Option<f64>,
     pub scenarios_per_rate: usize,
+}
+
+/// A car judged with the calibration its earlier drives left (see `eval::calibrated`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CalibratedCar {
+    /// The drives the record was learnt from, in order, and the drive judged.
+    pub learnt_on: Vec<String>,
+    pub judged: String,
+    /// What the judged drive's receiver reports (`velocity` or `position`).
+    pub receiver: &'static str,
+    /// The record the judged drive started from.
+    #[serde(serialize_with = "record_json")]
+    pub record: Option<detector_core::strategy::track::calibration::Record>,
+    /// Alarm episodes on the judged drive, clean; and whether it contradicted the record.
+    pub false_alarms: usize,
+    pub contradicted: bool,
+    /// The judged drive on tyres 3 % larger: seconds into it when the contradiction was found.
+    pub tyre_change_found_s: Option<f64>,
+    /// The earliest onset, seconds into the drive, and the onsets per rate and direction.
+    pub first_onset_s: f64,
+    pub onsets: usize,
+    pub sweep: Vec<CalibratedRate>,
+}
+
+/// One drift rate on a calibrated car.
+#[derive(Clone, Debug, Serialize)]
+pub struct CalibratedRate {
+    pub rate_mps: f64,
+    #[serde(flatten)]
+    pub counts: SweepCounts,
+    /// Scenarios that fired before their onset.
+    pub pre_onset_alarms: usize,
+}
+
+fn record_json<S: serde::Serializer>(r: &Option<detector_core::strategy::track::calibration::Record>, s: S) -> Result<S::Ok, S::Error> {
+    use serde::Serialize as _;
+    let f = |v: f32| if v.is_finite() { Some(v) } else { None };
+    r.map(|r| serde_json::json!({
+        "scale": r.scale, "delay_position_s": r.delay_s[0], "delay_velocity_s": f(r.delay_s[1]),
+        "learnt_s": r.learnt_s, "drives": r.drives, "gyro_bias_degps": f(r.gyro_bias_degps),
+        "gyro_scale_error": r.gyro_scale_error, "noise_s0_m": r.noise_s0_m, "noise_k": r.noise_k,
+        "velocity_sigma_mps": r.velocity_sigma_mps,
+    })).serialize(s)
 }

@@ -11,6 +11,7 @@ use crate::dataset::Drive;
 use crate::detect::{self, PredictorKind};
 use detector_core::fusion::{Config, Verdict};
 use detector_core::sample::Sample;
+use detector_core::strategy::track::calibration::Record;
 use detector_core::strategy::turn::TemplateSet;
 use detector_core::strategy::StrategyId;
 use gnss_data::attack::{self, AttackKind, AttackParams};
@@ -24,6 +25,11 @@ pub type Folds = BTreeMap<String, Fitted>;
 
 /// The detector's verdicts on samples of drive `d`, with the numbers of its source's fold.
 pub fn verdicts(d: &Drive, samples: &[Sample], o: &EvalOptions, folds: &Folds) -> Vec<Verdict> {
+    verdicts_calibrated(d, samples, o, folds, None).0
+}
+
+/// [`verdicts`] of a car whose calibration was stored, and the record to store after it.
+pub fn verdicts_calibrated(d: &Drive, samples: &[Sample], o: &EvalOptions, folds: &Folds, record: Option<&Record>) -> (Vec<Verdict>, Option<Record>) {
     let fitted = folds.get(&d.source);
     let apply = |c: &mut Config| {
         if let Some(f) = fitted {
@@ -35,7 +41,7 @@ pub fn verdicts(d: &Drive, samples: &[Sample], o: &EvalOptions, folds: &Folds) -
         Some(s) => s,
         None => detect::default_templates(),
     };
-    detect::run_with_templates(samples, cfg, o.predictor, set)
+    detect::run_calibrated(samples, cfg, o.predictor, set, record)
 }
 
 /// Hours of epochs at which at least one strategy ran.
@@ -320,6 +326,7 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, data_dir: &str, f
         paper_strategies_only: None,
         smallest_drift_detected_10s_mps: smallest_drift,
         drift_sweep: None,
+        calibrated: None,
         predictors: None,
         quantization: None,
     }
@@ -345,6 +352,7 @@ pub fn full(drives: Vec<Drive>, o: &EvalOptions, data: &str, data_dir: &str, nui
     let sweep = drift_sweep(&drives, o, &folds);
     r.drift_limit = Some(drift_limits(&sweep, |class| track_bound_10s_mps(&drives, class, o, &folds)));
     r.drift_sweep = Some(sweep);
+    r.calibrated = Some(super::calibrated::calibrated_cars(&drives, o, &folds));
     if nuisance_variants > 0 {
         let (per, total) = nuisance_suite(&drives, o, &folds, nuisance_variants, progress);
         r.nuisance = Some(per);

@@ -73,7 +73,7 @@ impl Default for CalLimits {
             tau_s: 3600.0,
             scale_bound: 0.01,
             scale_rate_per_s: 1.0e-5,
-            delay_bound_s: 0.375,
+            delay_bound_s: 1.0,
             delay_dwell_s: 30.0,
             contradict_after_s: 180.0,
             stored_weight_s: 120.0,
@@ -372,12 +372,8 @@ impl Calibration {
                 set.dwell_s = 0.0;
             }
             if let Some(k0) = set.anchor {
-                // This drive's own fit at the stored delay, never forgotten.
-                if let Some(dk) = d.get(k0) {
-                    set.own.add(g, *dk, derot, dt, 1.0);
-                    set.own_s += dt;
-                }
-                if set.own_s >= lim.contradict_after_s && free.abs_diff(k0) > span + 1 && self.contradiction.is_none() {
+                // The delay's information is in the accelerations only: ten minutes of them.
+                if set.own_s >= (3.0 * lim.contradict_after_s).max(600.0) && free.abs_diff(k0) > span + 1 && self.contradiction.is_none() {
                     self.contradiction = Some(Contradiction::Delay);
                 }
             }
@@ -387,14 +383,51 @@ impl Calibration {
         if leads {
             self.learnt_s += dt;
             let rate = self.lim.scale_rate_per_s.max(self.scale_sd(sigma, kappa) / 60.0);
-            self.learn_scale(src, dt, rate);
+            self.learn_scale(src, dt, rate, sigma * sigma * kappa.max(1.0));
         }
         if !self.calibrated && self.learnt_s >= lim.warmup_s {
             self.calibrated = true;
         }
     }
 
-    fn learn_scale(&mut self, src: Source, dt: f32, rate: f32) {
+    /// `noise` is the velocity residual's variance times its correlation time, (m/s)^2 s: the
+    /// own estimate's standard error is `sqrt(noise / sum |D|^2)`.
+    /// This drive's own fit at the stored delay, never forgotten, and learnt whatever the check
+    /// says (it steers no judgement: it is only compared with the stored record, so a record the
+    /// car contradicts is found even while the evidence freezes everything else): then the
+    /// contradiction test of the scale.
+    pub fn learn_own(&mut self, src: Source, g: (f32, f32), d: &[(f32, f32); DELAYS], derot: (f32, f32), dt: f32, sigma: f32, kappa: f32) {
+        if !(dt.is_finite() && dt > 0.0) || !(g.0.is_finite() && g.1.is_finite()) {
+            return;
+        }
+        let Some(set) = self.sets.get_mut(src as usize) else { return };
+        let Some(k0) = set.anchor else { return };
+        let Some(dk) = d.get(k0).filter(|x| x.0.is_finite() && x.1.is_finite()) else { return };
+        set.own.add(g, *dk, derot, dt, 1.0);
+        set.own_s += dt;
+        let leads = src == Source::Velocity || self.sets[Source::Velocity as usize].own_s <= 0.0;
+        if leads {
+            self.check_scale(src, sigma * sigma * kappa.max(1.0));
+        }
+    }
+
+    /// A stored record that this drive's own data contradicts beyond the bound, by more than
+    /// three of the own estimate's standard errors, is reported, not relearnt (the scale in use
+    /// stays at its bound). Minutes of town driving resolve the scale to about 1 %. `noise` is
+    /// the velocity residual's variance times its correlation time, (m/s)^2 s.
+    fn check_scale(&mut self, src: Source, noise: f32) {
+        let set = &self.sets[src as usize];
+        if let (Some(r), None) = (self.stored, self.contradiction) {
+            if let Some(own) = set.own.scale().filter(|_| set.own_s >= self.lim.contradict_after_s) {
+                let sd = libm::sqrtf(noise / set.own.b.max(1e-6)) / r.scale;
+                if libm::fabsf(own / r.scale - 1.0) > self.lim.scale_bound + 3.0 * sd {
+                    self.contradiction = Some(Contradiction::Scale);
+                }
+            }
+        }
+    }
+
+    fn learn_scale(&mut self, src: Source, dt: f32, rate: f32, noise: f32) {
         let set = &self.sets[src as usize];
         let Some(s) = set.scale() else { return };
         if !self.calibrated {
@@ -410,15 +443,7 @@ impl Calibration {
             }
             None => moved,
         };
-        // A stored record that this drive's own data contradicts beyond the bound is reported,
-        // not relearnt (the scale in use stays at its bound).
-        if let (Some(r), None) = (self.stored, self.contradiction) {
-            if let Some(own) = set.own.scale().filter(|_| set.own_s >= self.lim.contradict_after_s) {
-                if libm::fabsf(own / r.scale - 1.0) > self.lim.scale_bound {
-                    self.contradiction = Some(Contradiction::Scale);
-                }
-            }
-        }
+        self.check_scale(src, noise);
     }
 
     /// The record's part of what was learnt: the scale, the delays (the velocity's NaN where
@@ -450,6 +475,7 @@ mod tests {
         for _ in 0..secs {
             let d = [(0.0f32, 15.0f32); DELAYS];
             c.learn(Source::Velocity, (0.0, 15.0 * true_scale), &d, (1.0, 0.0), 1.0, 0.15, 5.0);
+            c.learn_own(Source::Velocity, (0.0, 15.0 * true_scale), &d, (1.0, 0.0), 1.0, 0.15, 5.0);
         }
     }
 

@@ -1002,10 +1002,15 @@ impl TrackCheck {
         // Learning: only while driving, and (once calibrated) while nothing is suspicious; a
         // first drive's warm-up learns freely and says so.
         let free = !self.cal.calibrated() || self.warming();
-        if moving && (free || !suspicious) {
-            let before = self.cal.contradiction();
-            self.learn(t, dt, &wins, vel.map(|v| v.0));
-            out.contradiction_found = before.is_none() && self.cal.contradiction().is_some();
+        let before = self.cal.contradiction();
+        let learns = moving && (free || !suspicious);
+        if moving {
+            // The calibration's pairs: learnt only when allowed; this drive's own estimate (the
+            // contradiction test) always.
+            self.learn_calibration(t, learns);
+        }
+        if learns {
+            self.learn(dt, &wins, vel.map(|v| v.0));
             if let Some(v) = out.velocity {
                 let k = (dt / 600.0).clamp(0.0, 1.0);
                 for (q, s) in self.quiet_sigma.iter_mut().zip(v.sigma_mps) {
@@ -1013,12 +1018,13 @@ impl TrackCheck {
                 }
             }
         }
+        out.contradiction_found = before.is_none() && self.cal.contradiction().is_some();
         if !any_above {
             self.alarm = [false; 2];
         }
     }
 
-    fn learn(&mut self, t: f32, dt: f32, wins: &[Option<Window>; 2], pair: Option<Pair>) {
+    fn learn(&mut self, dt: f32, wins: &[Option<Window>; 2], pair: Option<Pair>) {
         let c = self.cfg;
         let keep = libm::expf(-dt / self.learn_tau());
         let aligned = self.aligned_frame();
@@ -1066,14 +1072,13 @@ impl TrackCheck {
         if let (Some((phi, r)), Some(rot)) = (measured, self.rot_mut()) {
             rot.update(phi, r, &c);
         }
-        self.learn_calibration(t);
     }
 
     /// One calibration pair: a history entry old enough that the DR velocity is known at every
     /// delay candidate, at most every [`LEARN_EVERY_S`]: the position's delay from its position
     /// difference, the velocity's from the reported velocity where there is one. The DR is
     /// sampled once on the candidates' grid.
-    fn learn_calibration(&mut self, t: f32) {
+    fn learn_calibration(&mut self, t: f32, learns: bool) {
         let limit = t + DELAY_MIN_S - 0.5 * PAIR_S;
         let Some(e) = self.hist.newest_between(self.last_learn_t + LEARN_EVERY_S, limit) else { return };
         let dt = (e.t - self.last_learn_t).clamp(0.05, 1.0);
@@ -1107,18 +1112,21 @@ impl TrackCheck {
                     None => return,
                 }
             }
-            if gyro {
-                cal.learn(src, g, &ds, derot, dt, sigma, kappa);
+            // Without a gyro the DR's direction is the GNSS bearing of the last metres, an epoch
+            // late: only the speeds are compared (the direction would pull the delay toward it).
+            let (g, derot) = if gyro {
+                (g, derot)
             } else {
-                // Without a gyro the DR's direction is the GNSS bearing of the last metres, an
-                // epoch late: only the speeds are compared (the direction would pull the delay
-                // toward it).
                 let mag = |x: (f32, f32)| (libm::sqrtf(norm2(x)), 0.0);
                 for d in ds.iter_mut() {
                     *d = mag(*d);
                 }
-                cal.learn(src, mag(g), &ds, (1.0, 0.0), dt, sigma, kappa);
+                (mag(g), (1.0, 0.0))
+            };
+            if learns {
+                cal.learn(src, g, &ds, derot, dt, sigma, kappa);
             }
+            cal.learn_own(src, g, &ds, derot, dt, sigma, kappa);
         };
         learn(Source::Position, scale2(sub(e.g, start.g), 1.0 / PAIR_S), GRID_POS_END, &mut self.cal);
         if e.has_velocity() {

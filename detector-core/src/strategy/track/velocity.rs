@@ -62,8 +62,12 @@ pub struct VelocityConfig {
     pub enabled: bool,
     /// False alarms per hour of driving the threshold is derived from.
     pub budget_per_hour: f32,
-    /// Correlation time of the residual, seconds.
+    /// Correlation time of the residual, seconds: of a receiver's own velocity (Doppler,
+    /// filtered: positively correlated, with excursions of seconds), and of position
+    /// differences (differenced position noise is negatively correlated; their windows carry
+    /// the ends' position error instead, see [`Channel::statistic`]).
     pub kappa_s: f32,
+    pub kappa_position_s: f32,
     /// Per-pair clip of `z`.
     pub clip: f32,
     /// Three consecutive `|z|` beyond this (and `gross_mps` beyond it in m/s, in the same
@@ -94,6 +98,7 @@ impl Default for VelocityConfig {
             enabled: true,
             budget_per_hour: 0.001,
             kappa_s: 6.0,
+            kappa_position_s: 3.0,
             clip: 4.0,
             gross: 6.0,
             gross_mps: 2.0,
@@ -208,7 +213,7 @@ impl Channel {
     /// a window's two ends where the pairs are position differences (their sum over a window is
     /// the window's displacement, so its error is the ends' error, not a sum of independent
     /// ones); 0 for a receiver's own velocity.
-    fn statistic(&self, cfg: &VelocityConfig, end_var: f32) -> [f32; WINDOWS] {
+    fn statistic(&self, cfg: &VelocityConfig, end_var: f32, kappa: f32) -> [f32; WINDOWS] {
         let (mut zw, mut w) = (0.0f32, 0.0f32);
         let mut best = [0.0f32; WINDOWS];
         if self.head == i32::MIN {
@@ -225,7 +230,7 @@ impl Channel {
                     if let Some(b) = best.get_mut(wi) {
                         // The mean z's variance: kappa / w, and the ends' error in z units.
                         let ends = end_var.max(0.0) / (self.sigma * self.sigma * w * w).max(1e-9);
-                        *b = libm::fabsf(zw / w) / libm::sqrtf(cfg.kappa_s.max(0.1) / w + ends);
+                        *b = libm::fabsf(zw / w) / libm::sqrtf(kappa.max(0.1) / w + ends);
                     }
                 }
                 wi += 1;
@@ -333,7 +338,8 @@ impl VelocityTest {
         }
         let h = self.h;
         for (k, ch) in self.ch.iter_mut().enumerate() {
-            let tw = ch.statistic(&cfg, end_var);
+            let kappa = if end_var > 0.0 { cfg.kappa_position_s } else { cfg.kappa_s };
+            let tw = ch.statistic(&cfg, end_var, kappa);
             let t_w = tw.iter().fold(0.0f32, |a, b| a.max(*b));
             if let Some(o) = out.t_windows.get_mut(k) {
                 *o = tw;

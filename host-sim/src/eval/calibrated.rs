@@ -1,0 +1,112 @@
+//! Calibrated cars: a car's calibration learnt from its earlier drives, kept as the board keeps
+//! it (a [`Record`] carried from drive to drive), then its last drive judged with it: clean
+//! (false alarms, a contradiction of the record), and under slow drifts at fixed rates with
+//! onsets from its first minute (a car that starts calibrated needs no warm-up); and once more
+//! on tyres 3 % larger, which must contradict the record (reason `calibration_contradicted`).
+//!
+//! A source's drives with wheel speed are taken in the order of their names (the sources name
+//! them by date): all but the last learn, in turn, each from the record the one before left;
+//! the last is judged. The drives' own fold numbers (strategy 1's term, strategy 2's templates)
+//! are the source's held-out fold, as everywhere in the evaluation.
+
+use super::plan::{EvalOptions, DRIFT_SWEEP_MPS, WINDOW_S};
+use super::results::{CalibratedCar, CalibratedRate, SweepCounts};
+use super::run::{receiver_class, verdicts_calibrated, Folds};
+use super::stats::alarm_episodes;
+use crate::dataset::Drive;
+use detector_core::fusion::Reason;
+use detector_core::strategy::track::calibration::Record;
+use gnss_data::attack::{self, AttackKind, AttackParams};
+use gnss_data::nuisance::{self, Nuisance};
+use gnss_data::replay;
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+
+/// The earliest onset on a calibrated car, seconds into the drive.
+pub const CALIBRATED_FIRST_ONSET_S: f64 = 20.0;
+/// The tyre change the judged drive is also replayed with: the wheels' circumference this many
+/// times the calibrated one (the wheel speed reads low by as much).
+pub const TYRE_CHANGE: f64 = 1.03;
+/// Scenarios per rate and direction on the judged drive (spread over its candidate onsets).
+pub const CALIBRATED_SCENARIOS: usize = 20;
+
+/// Every source with two or more drives with wheel speed: its last drive judged calibrated.
+pub fn calibrated_cars(drives: &[Drive], o: &EvalOptions, folds: &Folds) -> BTreeMap<String, CalibratedCar> {
+    let mut by_source: BTreeMap<&str, Vec<&Drive>> = BTreeMap::new();
+    for d in drives.iter().filter(|d| d.has_wheel_speed()) {
+        by_source.entry(d.source.as_str()).or_default().push(d);
+    }
+    by_source
+        .into_iter()
+        .filter(|(_, v)| v.len() >= 2)
+        .map(|(src, mut v)| {
+            v.sort_by(|a, b| a.name.cmp(&b.name));
+            (src.to_string(), car(&v, o, folds))
+        })
+        .collect()
+}
+
+fn car(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> CalibratedCar {
+    let (learn, judged) = drives.split_at(drives.len() - 1);
+    let mut record: Option<Record> = None;
+    for d in learn {
+        let (_, r) = verdicts_calibrated(d, &d.samples, o, folds, record.as_ref());
+        // A drive that ends uncalibrated or contradicts the record leaves the record as it was.
+        record = r.or(record);
+    }
+    let d = judged[0];
+    let (clean, _) = verdicts_calibrated(d, &d.samples, o, folds, record.as_ref());
+    let contradicted = clean.iter().any(|v| v.reasons.contains(Reason::CalibrationContradicted));
+    // The same drive on tyres 3 % larger: the record must be contradicted, and said so.
+    let tyres = nuisance::apply(&d.replay, &Nuisance { wheel_scale: Some(1.0 / TYRE_CHANGE), ..Default::default() }, o.seed);
+    let (tyre_samples, _) = replay::synchronize(&tyres, o.sync);
+    let (tv, _) = verdicts_calibrated(d, &tyre_samples, o, folds, record.as_ref());
+    let t0 = tv.first().map_or(0.0, |v| v.t);
+    let tyre_change_found_s = tv.iter().find(|v| v.reasons.contains(Reason::CalibrationContradicted)).map(|v| v.t - t0);
+    // Onsets spread evenly over the candidates from the first minute on, both directions.
+    let cands = attack::candidate_onsets_from(AttackKind::SlowDrift, &d.samples, Some(CALIBRATED_FIRST_ONSET_S));
+    let n = cands.len().min(CALIBRATED_SCENARIOS);
+    let onsets: Vec<f64> = (0..n).map(|i| cands[i * cands.len() / n.max(1)]).collect();
+    let rates: Vec<CalibratedRate> = DRIFT_SWEEP_MPS
+        .iter()
+        .map(|&rate| {
+            let runs: Vec<(bool, Option<f64>, bool)> = onsets
+                .par_iter()
+                .enumerate()
+                .flat_map(|(i, &t)| [false, true].into_par_iter().map(move |across| (i, t, across)))
+                .map(|(i, onset, across)| {
+                    let mut window = d.replay.clone();
+                    window.events.retain(|e| e.t() <= onset + WINDOW_S);
+                    let fixed = AttackParams { rate_mps: Some(rate), across: Some(across), ..Default::default() };
+                    let a = attack::apply_with(&window, AttackKind::SlowDrift, o.seed.wrapping_add(i as u64), onset, &fixed);
+                    let (samples, _) = replay::synchronize(&a.replay, o.sync);
+                    let (v, _) = verdicts_calibrated(d, &samples, o, folds, record.as_ref());
+                    let ttd = v.iter().find(|x| x.t >= onset && !x.fired.is_empty()).map(|x| x.t - onset);
+                    let pre = v.iter().any(|x| x.t < onset && !x.fired.is_empty());
+                    (across, ttd, pre)
+                })
+                .collect();
+            let mut c = SweepCounts::default();
+            let mut pre_onset = 0;
+            for (across, ttd, pre) in runs {
+                if across { c.across.add(rate, ttd) } else { c.along.add(rate, ttd) }
+                pre_onset += pre as usize;
+            }
+            c.along.finish();
+            c.across.finish();
+            CalibratedRate { rate_mps: rate, counts: c, pre_onset_alarms: pre_onset }
+        })
+        .collect();
+    CalibratedCar {
+        learnt_on: learn.iter().map(|d| d.name.clone()).collect(),
+        judged: d.name.clone(),
+        receiver: receiver_class(d),
+        record,
+        false_alarms: alarm_episodes(&clean),
+        contradicted,
+        tyre_change_found_s,
+        first_onset_s: CALIBRATED_FIRST_ONSET_S,
+        onsets: onsets.len(),
+        sweep: rates,
+    }
+}
