@@ -320,3 +320,51 @@ pub fn state_seconds(status: &[(f64, Value)]) -> BTreeMap<String, usize> {
 pub fn track_threshold_m(v: &Verdict) -> Option<f32> {
     v.track.and_then(|t| t.windows[0]).map(|w| w.threshold_m)
 }
+
+/// The car's stored calibration record from `path`: `None` when there is none, and when the file
+/// is not a valid record (said on stderr with the byte offset and what was expected there, and
+/// the file moved to `<name>.bad`: the drive then starts uncalibrated, as the board does with a
+/// bad record).
+pub fn read_calibration(path: &std::path::Path) -> Option<Record> {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            eprintln!("calibration: {}: none yet, this drive learns the car", path.display());
+            return None;
+        }
+        Err(e) => {
+            eprintln!("calibration: {}: cannot read ({e}): ignored, this drive starts uncalibrated", path.display());
+            return None;
+        }
+    };
+    match Record::decode(&bytes) {
+        Ok(r) => {
+            eprintln!("calibration: {}: scale {:.4}, delays {:.3} / {:.3} s, learnt over {} drives ({:.0} s)", path.display(), r.scale, r.delay_s[0], r.delay_s[1], r.drives, r.learnt_s);
+            Some(r)
+        }
+        Err(e) => {
+            // Kept aside, not lost: the drive's own record will take its place.
+            let aside = path.with_extension("bad");
+            let moved = std::fs::rename(path, &aside).map_or_else(|m| format!("could not be moved aside ({m})"), |_| format!("moved to {}", aside.display()));
+            eprintln!("calibration: {}: byte {}: expected {} ({e:?}): ignored ({moved}), this drive starts uncalibrated", path.display(), e.offset(), e.expected());
+            None
+        }
+    }
+}
+
+/// Writes what the drive learnt to `path` (whole or not at all), unless there is nothing to
+/// store; says what happened (JSON: `loaded`, `written`, `contradicted`, `said`).
+pub fn write_calibration(path: &std::path::Path, stored: Option<&Record>, learnt: Option<&Record>, verdicts: &[Verdict]) -> anyhow::Result<Value> {
+    use detector_core::fusion::Reason;
+    let contradicted = verdicts.iter().any(|v| v.reasons.contains(Reason::CalibrationContradicted));
+    let said = match learnt {
+        Some(r) => {
+            crate::output::write_atomic(path, |w| w.write_all(&r.encode())).map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+            format!("{} written: scale {:.4}, delays {:.3} / {:.3} s, {} drives", path.display(), r.scale, r.delay_s[0], r.delay_s[1], r.drives)
+        }
+        None if contradicted => format!("{} kept: this drive contradicts it (reason calibration_contradicted: another car, other tyres, or GNSS spoofed since before the drive); delete it to let the car be learnt afresh", path.display()),
+        None => format!("{} not written: the car is not calibrated yet (a first drive learns it over {} s of driving)", path.display(), detector_core::strategy::track::calibration::CalLimits::default().warmup_s),
+    };
+    eprintln!("calibration: {said}");
+    Ok(json!({"loaded": stored.is_some(), "written": learnt.is_some(), "contradicted": contradicted, "said": said}))
+}

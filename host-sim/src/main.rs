@@ -107,6 +107,11 @@ enum Cmd {
         /// Strategy 1's predictor (default: the LSTM, whose model is built in).
         #[arg(long, value_enum, default_value = "lstm")]
         predictor: detect::PredictorKind,
+        /// The car's calibration record (the board keeps the same bytes in flash): read at the
+        /// start when the file exists (the drive starts calibrated), written at the end when the
+        /// drive left the car calibrated; kept as it is when the drive contradicts it.
+        #[arg(long)]
+        calibration: Option<PathBuf>,
         #[command(flatten)]
         load: LoadArgs,
     },
@@ -453,7 +458,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Cmd::Detect { path, can, gnss, dbc, map, json, profile, predictor, load } => {
+        Cmd::Detect { path, can, gnss, dbc, map, json, profile, predictor, calibration, load } => {
             let r = match (path, can, gnss, dbc, map) {
                 (_, Some(can), Some(gnss), Some(dbc), Some(map)) => {
                     let read = |p: &PathBuf| std::fs::read_to_string(p).map_err(|e| InputError::file(p, format!("cannot read as text: {e}")));
@@ -475,7 +480,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Some(_) => &detector_core::profile::LOGGER_1HZ,
                 None => detect::profile_of(&samples),
             };
-            let verdicts = detect::run_with(&samples, detect::config(p, predictor), predictor);
+            let stored = match &calibration {
+                Some(f) => detect::read_calibration(f),
+                None => None,
+            };
+            let (verdicts, learnt) = detect::run_calibrated(&samples, detect::config(p, predictor), predictor, detect::default_templates(), stored.as_ref());
+            let cal_outcome = match &calibration {
+                Some(f) => Some(detect::write_calibration(f, stored.as_ref(), learnt.as_ref(), &verdicts)?),
+                None => None,
+            };
             let summary = detect::summarize(&verdicts, p);
             let status = detect::status_lines(&verdicts);
             let mut out = std::io::BufWriter::new(std::io::stdout().lock());
@@ -497,12 +510,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 for (_, s) in next_status {
                     writeln!(out, "{}", serde_json::json!({ "status": s }))?;
                 }
-                writeln!(out, "{}", serde_json::json!({ "summary": summary, "status": last_status, "status_seconds": detect::state_seconds(&status), "digest": detect::digest_hex(&verdicts) }))?;
+                writeln!(out, "{}", serde_json::json!({ "summary": summary, "status": last_status, "status_seconds": detect::state_seconds(&status), "digest": detect::digest_hex(&verdicts), "calibration": cal_outcome }))?;
             } else {
                 writeln!(out, "verdict digest: {}", detect::digest_hex(&verdicts))?;
                 writeln!(out, "summary: {}", serde_json::to_string_pretty(&summary)?)?;
                 writeln!(out, "status at the end: {}", last_status.map_or("none".into(), |s| s.to_string()))?;
                 writeln!(out, "status seconds per state: {:?}", detect::state_seconds(&status))?;
+                if let Some(c) = &cal_outcome {
+                    writeln!(out, "calibration: {}", c["said"].as_str().unwrap_or(""))?;
+                }
             }
             Ok(())
         }

@@ -90,69 +90,7 @@ pub enum Source {
     Velocity = 1,
 }
 
-/// What a car's calibration holds between drives (see `wire::calibration` for its bytes).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Record {
-    /// GNSS distance over wheel-speed distance.
-    pub scale: f32,
-    /// How late the GNSS position and the GNSS velocity are behind the vehicle signals,
-    /// seconds (negative: the vehicle signals late); the velocity's NaN where the receiver
-    /// reported none.
-    pub delay_s: [f32; 2],
-    /// Seconds of driving the record was learnt from, over all its drives.
-    pub learnt_s: f32,
-    /// Drives that contributed.
-    pub drives: u16,
-    /// The gyro's bias, deg/s (NaN: no gyro, or never measured), and the seconds of standstill
-    /// behind it.
-    pub gyro_bias_degps: f32,
-    pub gyro_bias_weight_s: f32,
-    /// The gyro's scale error (true turn = (1 + e) measured turn) and its uncertainty.
-    pub gyro_scale_error: f32,
-    pub gyro_scale_sd: f32,
-    /// The position windows' learnt noise (10 s, 30 s): `s0` metres and `k`.
-    pub noise_s0_m: [f32; 2],
-    pub noise_k: [f32; 2],
-    /// The velocity channels' quiet noise (along, across), m/s.
-    pub velocity_sigma_mps: [f32; 2],
-    /// The epoch length of the receiver it was learnt with, seconds (noise is the receiver's).
-    pub nominal_dt_s: f32,
-}
-
-impl Record {
-    /// Every field finite and physically possible (what a decoded record must satisfy).
-    pub fn plausible(&self) -> Result<(), &'static str> {
-        let ok = |v: f32, lo: f32, hi: f32| v.is_finite() && (lo..=hi).contains(&v);
-        if !ok(self.scale, 0.8, 1.25) {
-            return Err("scale");
-        }
-        if !ok(self.delay_s[0], DELAY_MIN_S, -DELAY_MIN_S) || !(self.delay_s[1].is_nan() || ok(self.delay_s[1], DELAY_MIN_S, -DELAY_MIN_S)) {
-            return Err("delay_s");
-        }
-        if !ok(self.learnt_s, 0.0, 1.0e9) {
-            return Err("learnt_s");
-        }
-        if !(self.gyro_bias_degps.is_nan() || ok(self.gyro_bias_degps, -10.0, 10.0)) {
-            return Err("gyro_bias_degps");
-        }
-        if !ok(self.gyro_bias_weight_s, 0.0, 1.0e9) {
-            return Err("gyro_bias_weight_s");
-        }
-        if !ok(self.gyro_scale_error, -0.2, 0.2) || !ok(self.gyro_scale_sd, 0.0, 1.0) {
-            return Err("gyro_scale");
-        }
-        if !self.noise_s0_m.iter().all(|v| ok(*v, 0.0, 1000.0)) || !self.noise_k.iter().all(|v| ok(*v, 0.0, 10.0)) {
-            return Err("noise");
-        }
-        if !self.velocity_sigma_mps.iter().all(|v| ok(*v, 0.0, 100.0)) {
-            return Err("velocity_sigma_mps");
-        }
-        if !ok(self.nominal_dt_s, 0.01, 10.0) {
-            return Err("nominal_dt_s");
-        }
-        Ok(())
-    }
-}
+pub use crate::wire::calibration::{Record, RecordError, RECORD_LEN};
 
 /// What of the stored record this drive contradicts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -539,6 +477,6 @@ mod tests {
         r.delay_s[1] = f32::NAN;
         assert!(r.plausible().is_ok());
         r.delay_s[0] = f32::NAN;
-        assert_eq!(r.plausible(), Err("delay_s"));
+        assert_eq!(r.plausible(), Err("a position delay within 3 s"));
     }
 }
