@@ -19,4 +19,5 @@ pub mod health;
 pub mod nmea;
 pub mod pipeline;
 pub mod replay;
+pub mod store;
 pub mod ubx;
