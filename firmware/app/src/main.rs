@@ -7,6 +7,7 @@
 //! gnss_task    USART2 RX, DMA ring buffer, NMEA + UBX -> GnssMsg -> GNSS_RX --------------> detector_task
 //!                                                                                           | pipeline: synchroniser, detector,
 //! can_tx_task  <- TX_QUEUE (alarm first, status pages) <- TX_WAKE <--------------------------/ status, alarm outbox; PA5; watchdog
+//! store_task   <- STORE_CMD (the calibration record to keep, or forget) <----------------------/
 //! ```
 //!
 //! - Reception cannot overflow unseen while a detector step runs: `can_rx_task` runs on an
@@ -26,6 +27,12 @@
 //!   yet sent and takes back one the mailboxes could not take (counted as a retry); while the
 //!   alarm is latched it is repeated once a second. Only a clear request frame
 //!   (`GNSS_GUARD_CLEAR`, KEY 0xC1EA) or a power cycle clears the latch.
+//! - The car's calibration is kept in flash sectors 1 and 2 (`gnss_guard_board::store`,
+//!   sequential-storage: wear levelled, safe against power cuts): read once at start-up (a bad
+//!   record is ignored and reported, status page 2), saved by `store_task` when the pipeline's
+//!   policy says so (the car standing, no alarm, at most every five minutes: the STM32F405
+//!   cannot fetch code while it programs its flash), forgotten on a relearn request
+//!   (`GNSS_GUARD_CLEAR`, KEY 0xCA1B). `memory.x` keeps the code out of those sectors.
 #![no_std]
 #![no_main]
 
@@ -52,6 +59,7 @@ use gnss_guard_board::gnss::MAX_SENTENCE;
 use gnss_guard_board::ubx::{self, Chunk, Framer};
 use gnss_guard_board::health::{Faults, ResetCause, TxFrame, TxQueue, WatchdogGate};
 use gnss_guard_board::pipeline::Pipeline;
+use gnss_guard_board::store::{Loaded, Store};
 use {defmt_rtt as _, panic_probe as _};
 
 bind_interrupts!(struct Irqs {
@@ -61,7 +69,19 @@ bind_interrupts!(struct Irqs {
     CAN1_TX => can::TxInterruptHandler<peripherals::CAN1>;
     USART2 => usart::InterruptHandler<peripherals::USART2>;
     DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
+    FLASH => embassy_stm32::flash::InterruptHandler;
 });
+
+/// The calibration store: flash sectors 1 and 2 (offsets into bank 1 region 1, whose sectors
+/// are 16 KiB: one erases in at most 0.8 s, inside the watchdog's 2 s).
+const STORE_RANGE: core::ops::Range<u32> = 0x4000..0xC000;
+type StoreFlash = embassy_stm32::flash::Bank1Region1<'static, embassy_stm32::flash::Async>;
+
+/// What the detector task asks of the store.
+enum StoreCmd {
+    Save(detector_core::wire::calibration::Record),
+    Forget,
+}
 
 const CAN_BITRATE: u32 = 500_000;
 const GNSS_BAUD: u32 = 115_200;
@@ -95,6 +115,9 @@ static CAN: static_cell::StaticCell<Can<'static>> = static_cell::StaticCell::new
 static CAN_RX: Channel<CriticalSectionRawMutex, CanMsg, 64> = Channel::new();
 static GNSS_RX: Channel<CriticalSectionRawMutex, GnssMsg, 8> = Channel::new();
 static TX_QUEUE: Mutex<CriticalSectionRawMutex, RefCell<TxQueue>> = Mutex::new(RefCell::new(TxQueue::new()));
+static STORE_CMD: Channel<CriticalSectionRawMutex, StoreCmd, 2> = Channel::new();
+/// The store failed a save or a forget (reported in status page 2 by the detector task).
+static STORE_FAILED: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
 
 #[interrupt]
 #[allow(non_snake_case)]
@@ -218,7 +241,23 @@ async fn gnss_task(mut rx: RingBufferedUartRx<'static>) {
 }
 
 #[embassy_executor::task]
-async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatchdog<'static, peripherals::IWDG>, mut faults: Faults, reset_cause: ResetCause, restarts: u32) {
+async fn store_task(mut store: Store<StoreFlash>) {
+    loop {
+        let ok = match STORE_CMD.receive().await {
+            StoreCmd::Save(r) => store.save(&r).await.is_ok(),
+            StoreCmd::Forget => store.forget().await.is_ok(),
+        };
+        if ok {
+            info!("calibration kept in flash");
+        } else {
+            error!("calibration store failed");
+            STORE_FAILED.store(true, Ordering::Relaxed);
+        }
+    }
+}
+
+#[embassy_executor::task]
+async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatchdog<'static, peripherals::IWDG>, mut faults: Faults, reset_cause: ResetCause, restarts: u32, loaded: Loaded) {
     // Strategy 1: the LSTM with the built-in model, or the kinematic predictor if it is invalid.
     let predictor = detector_core::strategy::location_shift::Predictor::default_lstm();
     if !matches!(predictor, detector_core::strategy::location_shift::Predictor::Lstm(_)) {
@@ -233,6 +272,7 @@ async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatch
     }
     let mut p = Pipeline::new(cfg, templates, predictor);
     p.health.faults = faults;
+    p.calibrate(&loaded);
     p.health.reset_cause = reset_cause;
     p.health.counters.restarts = restarts;
     let mut gate = WatchdogGate::default();
@@ -277,6 +317,17 @@ async fn detector_task(mut alarm_pin: Output<'static>, mut wdg: IndependentWatch
                 p.alarm.sent(now);
             }
             TX_WAKE.signal(());
+        }
+        // The calibration to keep (or forget), to the store task; its failures back.
+        if let Some(r) = p.take_calibration() {
+            let _ = STORE_CMD.try_send(StoreCmd::Save(r));
+        }
+        if p.take_forget() {
+            info!("relearn request: the stored calibration is forgotten");
+            let _ = STORE_CMD.try_send(StoreCmd::Forget);
+        }
+        if STORE_FAILED.swap(false, Ordering::Relaxed) {
+            p.store_failed();
         }
         if p.alarm.latched() {
             alarm_pin.set_high();
@@ -387,7 +438,24 @@ async fn start(spawner: Spawner, can_spawner: SendSpawner, p: embassy_stm32::Per
         }
     };
 
-    spawner.spawn(detector_task(alarm_pin, wdg, faults, reset_cause, restarts).expect("detector task spawns once"));
+    // The car's calibration, read once before the detector starts.
+    let region = embassy_stm32::flash::Flash::new(p.FLASH, Irqs).into_regions().bank1_region1;
+    let mut store = Store::new(region, STORE_RANGE);
+    let loaded = match store.as_mut() {
+        Some(s) => s.load().await,
+        None => Loaded::FlashError,
+    };
+    match loaded {
+        Loaded::Record(r) => info!("calibration from flash: {} drives, scale {}", r.drives, r.scale),
+        Loaded::None => info!("no calibration in flash: this drive learns the car"),
+        Loaded::Invalid(e) => error!("calibration record invalid at byte {}: ignored", e.offset()),
+        Loaded::FlashError => error!("calibration store unreadable"),
+    }
+
+    spawner.spawn(detector_task(alarm_pin, wdg, faults, reset_cause, restarts, loaded).expect("detector task spawns once"));
+    if let Some(s) = store {
+        spawner.spawn(store_task(s).expect("store task spawns once"));
+    }
     can_spawner.spawn(can_rx_task(rx).expect("CAN receive task spawns once"));
     spawner.spawn(can_tx_task(tx).expect("CAN transmit task spawns once"));
     if let Some(rx) = gnss {

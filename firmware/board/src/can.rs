@@ -34,8 +34,26 @@ pub fn is_clear_request(id: u32, data: &[u8]) -> bool {
 
 /// A clear request frame.
 pub fn clear_request() -> (u16, [u8; 8]) {
+    request(CLEAR_KEY)
+}
+
+/// The key a relearn request must carry (`GNSS_GUARD_CLEAR.KEY`): the stored calibration is
+/// forgotten and the car learnt afresh (after a tyre change; never done silently).
+pub const RELEARN_KEY: i64 = 0xCA1B;
+
+/// Is this frame our relearn request?
+pub fn is_relearn_request(id: u32, data: &[u8]) -> bool {
+    id == ours::CLEAR_ID as u32 && ours::CLEAR_KEY.raw(data) == Some(RELEARN_KEY)
+}
+
+/// A relearn request frame.
+pub fn relearn_request() -> (u16, [u8; 8]) {
+    request(RELEARN_KEY)
+}
+
+fn request(key: i64) -> (u16, [u8; 8]) {
     let mut d = [0u8; 8];
-    let _ = ours::CLEAR_KEY.put_raw(&mut d, CLEAR_KEY);
+    let _ = ours::CLEAR_KEY.put_raw(&mut d, key);
     (ours::CLEAR_ID, d)
 }
 

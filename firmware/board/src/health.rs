@@ -79,9 +79,27 @@ impl Faults {
     pub const UART_START: u8 = 2;
     pub const MODEL_INVALID: u8 = 4;
     pub const TEMPLATES_INVALID: u8 = 8;
+    /// The stored calibration record was invalid: ignored, the car is learnt afresh.
+    pub const CALIBRATION_INVALID: u8 = 16;
+    /// The calibration store (flash) failed.
+    pub const CALIBRATION_STORE: u8 = 32;
     pub fn set(&mut self, bit: u8) {
         self.0 |= bit;
     }
+}
+
+/// The track check's calibration (status page 2, `CALIBRATION`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Calibration {
+    /// A first drive: the car is being learnt.
+    #[default]
+    Learning = 0,
+    /// Learnt in this drive.
+    Learnt = 1,
+    /// From the record in flash.
+    Stored = 2,
+    /// This drive contradicts the stored record (kept until a relearn request).
+    Contradicted = 3,
 }
 
 /// Why the device last reset (status page 2, `RESET_CAUSE`).
@@ -120,6 +138,9 @@ pub struct Health {
     learning: bool,
     alarm: bool,
     receiver_spoofing: bool,
+    calibration: Calibration,
+    /// The detector started from a stored calibration record.
+    pub calibration_stored: bool,
     next_status_t: Option<f64>,
     /// A poll after this (and before `next_status_t`) is certainly within the period of it: one
     /// comparison instead of a soft-float subtraction per poll (see [`Health::status_due`]).
@@ -162,6 +183,17 @@ impl Health {
         self.alarm = v.alarm;
         use detector_core::fusion::Reason;
         self.receiver_spoofing = v.reasons.contains(Reason::ReceiverSpoofing);
+        if let Some(t) = v.track {
+            self.calibration = if t.contradiction.is_some() {
+                Calibration::Contradicted
+            } else if !t.calibrated {
+                Calibration::Learning
+            } else if self.calibration_stored {
+                Calibration::Stored
+            } else {
+                Calibration::Learnt
+            };
+        }
         if v.reasons.contains(Reason::TimeDiscontinuity) || v.reasons.contains(Reason::InvalidSample) {
             self.counters.detector_restarts = self.counters.detector_restarts.saturating_add(1);
         }
@@ -174,6 +206,11 @@ impl Health {
 
     pub fn epochs(&self) -> u32 {
         self.epochs
+    }
+
+    /// The calibration as the last verdict said.
+    pub fn calibration(&self) -> Calibration {
+        self.calibration
     }
 
     /// Seconds since the last fix at `now`, or `None` before the first.
@@ -253,6 +290,7 @@ impl Health {
         put(&STATUS_ALARM_RETRIES, &mut p2, sat(c.alarm_retries, 16), 16);
         put(&STATUS_DETECTOR_RESTARTS, &mut p2, sat(c.detector_restarts, 16), 16);
         put(&STATUS_RECEIVER_SPOOFING, &mut p2, self.receiver_spoofing as u64, 1);
+        put(&STATUS_CALIBRATION, &mut p2, self.calibration as u64, 2);
         [(STATUS_ID, p0), (STATUS_ID, p1), (STATUS_ID, p2)]
     }
 }
@@ -262,7 +300,7 @@ impl Health {
 pub enum StatusPage {
     Page0 { state: Option<State>, ran: u8, degraded: u8, fix_age_s: Option<f64>, epochs: u32 },
     Page1 { can_dropped: u16, can_overruns: u16, nmea_errors: u16, restarts: u8 },
-    Page2 { faults: u8, reset_cause: u8, alarm_retries: u16, detector_restarts: u16, receiver_spoofing: bool },
+    Page2 { faults: u8, reset_cause: u8, alarm_retries: u16, detector_restarts: u16, receiver_spoofing: bool, calibration: u8 },
 }
 
 /// Decodes a status frame, or `None` for another id, a short frame or an unknown page.
@@ -295,6 +333,7 @@ pub fn decode_status(id: u16, data: &[u8]) -> Option<StatusPage> {
             alarm_retries: raw(&STATUS_ALARM_RETRIES)? as u16,
             detector_restarts: raw(&STATUS_DETECTOR_RESTARTS)? as u16,
             receiver_spoofing: raw(&STATUS_RECEIVER_SPOOFING)? != 0,
+            calibration: raw(&STATUS_CALIBRATION)? as u8,
         }
     } else {
         return None;
@@ -336,13 +375,23 @@ pub struct AlarmFrame {
     pub reasons: u16,
     /// Reason 16 (supporting): the receiver's own spoofing flag.
     pub receiver_spoofing: bool,
+    /// Reasons 17 to 22 (bit 0 = reason 17).
+    pub extra_reasons: u8,
     /// Epoch of the earliest verdict merged in (24 bits on the wire).
     pub epoch: u32,
 }
 
 impl AlarmFrame {
     pub fn of(v: &Verdict) -> Self {
-        AlarmFrame { alarm: v.alarm, fired: v.fired.0, degraded: v.degraded.0, reasons: v.reasons.0 as u16, receiver_spoofing: v.reasons.contains(detector_core::fusion::Reason::ReceiverSpoofing), epoch: v.epoch }
+        AlarmFrame {
+            alarm: v.alarm,
+            fired: v.fired.0,
+            degraded: v.degraded.0,
+            reasons: v.reasons.0 as u16,
+            receiver_spoofing: v.reasons.contains(detector_core::fusion::Reason::ReceiverSpoofing),
+            extra_reasons: ((v.reasons.0 >> 17) & 0x3F) as u8,
+            epoch: v.epoch,
+        }
     }
     /// `self` with `newer` merged in: nothing either says is lost.
     pub fn merge(self, newer: AlarmFrame) -> Self {
@@ -352,6 +401,7 @@ impl AlarmFrame {
             degraded: newer.degraded,
             reasons: self.reasons | newer.reasons,
             receiver_spoofing: self.receiver_spoofing || newer.receiver_spoofing,
+            extra_reasons: self.extra_reasons | newer.extra_reasons,
             epoch: self.epoch,
         }
     }
@@ -362,6 +412,7 @@ impl AlarmFrame {
         put(&ALARM_DEGRADED, &mut d, self.degraded as u64, 8);
         put(&ALARM_REASONS, &mut d, self.reasons as u64, 16);
         put(&ALARM_RECEIVER_SPOOFING, &mut d, self.receiver_spoofing as u64, 1);
+        put(&ALARM_EXTRA_REASONS, &mut d, self.extra_reasons as u64, 6);
         put(&ALARM_EPOCH, &mut d, (self.epoch & 0xFF_FFFF) as u64, 24);
         (ALARM_ID, d)
     }
@@ -376,6 +427,7 @@ impl AlarmFrame {
             degraded: raw(&ALARM_DEGRADED)? as u8,
             reasons: raw(&ALARM_REASONS)? as u16,
             receiver_spoofing: raw(&ALARM_RECEIVER_SPOOFING)? != 0,
+            extra_reasons: raw(&ALARM_EXTRA_REASONS)? as u8,
             epoch: raw(&ALARM_EPOCH)? as u32,
         })
     }
@@ -581,7 +633,7 @@ mod tests {
             p => panic!("{p:?}"),
         }
         assert_eq!(decode_status(f[1].0, &f[1].1), Some(StatusPage::Page1 { can_dropped: 0xFFFF, can_overruns: 0, nmea_errors: 12, restarts: 0 }));
-        assert_eq!(decode_status(f[2].0, &f[2].1), Some(StatusPage::Page2 { faults: Faults::UART_START, reset_cause: 1, alarm_retries: 0, detector_restarts: 0, receiver_spoofing: false }));
+        assert_eq!(decode_status(f[2].0, &f[2].1), Some(StatusPage::Page2 { faults: Faults::UART_START, reset_cause: 1, alarm_retries: 0, detector_restarts: 0, receiver_spoofing: false, calibration: 0 }));
         assert_eq!(decode_status(f[0].0, &f[0].1[..3]), None, "a short frame decodes to nothing, no panic");
     }
 
@@ -679,13 +731,13 @@ mod tests {
         // Only the clear request ends it.
         let mut q = TxQueue::default();
         q.push_status(Health::default().status_due(0.0).unwrap());
-        q.push_alarm(AlarmFrame { alarm: true, fired: 1, degraded: 0, reasons: 1, receiver_spoofing: false, epoch: 5 });
+        q.push_alarm(AlarmFrame { alarm: true, fired: 1, degraded: 0, reasons: 1, receiver_spoofing: false, extra_reasons: 0, epoch: 5 });
         // The alarm goes first; when the mailboxes are full it comes back merged with a newer one.
         let first = q.pop().unwrap();
         assert!(matches!(first, TxFrame::Alarm(_)));
-        q.push_alarm(AlarmFrame { alarm: true, fired: 4, degraded: 0, reasons: 4, receiver_spoofing: true, epoch: 6 });
+        q.push_alarm(AlarmFrame { alarm: true, fired: 4, degraded: 0, reasons: 4, receiver_spoofing: true, extra_reasons: 4, epoch: 6 });
         q.give_back(first);
-        assert_eq!(q.pop(), Some(TxFrame::Alarm(AlarmFrame { alarm: true, fired: 5, degraded: 0, reasons: 5, receiver_spoofing: true, epoch: 5 })));
+        assert_eq!(q.pop(), Some(TxFrame::Alarm(AlarmFrame { alarm: true, fired: 5, degraded: 0, reasons: 5, receiver_spoofing: true, extra_reasons: 4, epoch: 5 })));
         assert_eq!(q.alarm_retries, 1);
         for _ in 0..3 {
             assert!(matches!(q.pop(), Some(TxFrame::Status(_))));

@@ -5,7 +5,9 @@
 use crate::can;
 use crate::gnss::NmeaFixer;
 use crate::ubx::UbxFixer;
-use crate::health::{AlarmFrame, AlarmOutbox, Health, StatusFrames};
+use crate::health::{AlarmFrame, AlarmOutbox, Faults, Health, StatusFrames};
+use crate::store::{Loaded, SavePolicy};
+use detector_core::wire::calibration::Record;
 use detector_core::fusion::{Config, Detector, Verdict};
 use detector_core::sample::Sample;
 use detector_core::strategy::location_shift::Predictor;
@@ -72,6 +74,13 @@ pub struct Pipeline<'t> {
     pub clears: u32,
     /// UART errors and lines the splitter dropped (the firmware's GNSS task reports them).
     pub uart_errors: u32,
+    /// When to keep the calibration, and the record waiting to be kept (take it with
+    /// [`Pipeline::take_calibration`]).
+    save: SavePolicy,
+    to_save: Option<Record>,
+    /// A relearn request came: the store must forget the record (take with
+    /// [`Pipeline::take_forget`]).
+    forget: bool,
 }
 
 /// What the pipeline owes the bus at one moment.
@@ -101,7 +110,65 @@ impl<'t> Pipeline<'t> {
             alarm: AlarmOutbox::default(),
             clears: 0,
             uart_errors: 0,
+            save: SavePolicy::default(),
+            to_save: None,
+            forget: false,
         }
+    }
+
+    /// Starts the detector from what the store held: a record (calibrated from the first epoch),
+    /// nothing (the car is learnt), or bytes that are not a record (ignored and reported:
+    /// status fault `CALIBRATION_INVALID`), or a flash that failed (`CALIBRATION_STORE`).
+    pub fn calibrate(&mut self, loaded: &Loaded) {
+        let record = match loaded {
+            Loaded::Record(r) if r.plausible().is_ok() => Some(r),
+            Loaded::Record(_) | Loaded::Invalid(_) => {
+                self.health.faults.set(Faults::CALIBRATION_INVALID);
+                None
+            }
+            Loaded::FlashError => {
+                self.health.faults.set(Faults::CALIBRATION_STORE);
+                None
+            }
+            Loaded::None => None,
+        };
+        self.health.calibration_stored = record.is_some();
+        self.det.set_calibration(record);
+    }
+
+    /// The record to keep now, once (the car stood, no alarm, spaced: see [`SavePolicy`]).
+    pub fn take_calibration(&mut self) -> Option<Record> {
+        self.to_save.take()
+    }
+
+    /// Whether a relearn request asks the store to forget the record, once.
+    pub fn take_forget(&mut self) -> bool {
+        core::mem::take(&mut self.forget)
+    }
+
+    /// The store failed to keep or forget the record (status fault `CALIBRATION_STORE`).
+    pub fn store_failed(&mut self) {
+        self.health.faults.set(Faults::CALIBRATION_STORE);
+    }
+
+    /// This pipeline made afresh for another run, in place: part by part, so that no whole
+    /// pipeline (31 KB) is built on the stack to be copied in (the QEMU image keeps one in static
+    /// memory and runs every scenario in it).
+    pub fn restart(&mut self, cfg: Config, templates: Option<TemplateSet<'t>>, predictor: Predictor<'t>) {
+        self.sync = Synchronizer::new(SyncConfig::default());
+        self.det.reinit(cfg, predictor, templates);
+        self.nmea = NmeaFixer::default();
+        self.ubx = UbxFixer::default();
+        self.digest = Digest::default();
+        self.epochs = 0;
+        self.frames = 0;
+        self.health = Health::default();
+        self.alarm = AlarmOutbox::default();
+        self.clears = 0;
+        self.uart_errors = 0;
+        self.save = SavePolicy::default();
+        self.to_save = None;
+        self.forget = false;
     }
 
     /// One received CAN frame (standard id) at time `t`, seconds. Our clear request clears
@@ -120,10 +187,20 @@ impl<'t> Pipeline<'t> {
             self.clears = self.clears.wrapping_add(1);
             return;
         }
-        let Self { sync, det, digest, epochs, health, alarm, .. } = self;
+        if can::is_relearn_request(id, data) {
+            // The stored calibration forgotten, here and in the store: the car is learnt
+            // afresh (the only way a stored record is ever replaced by a contradicting drive).
+            self.det.set_calibration(None);
+            self.health.calibration_stored = false;
+            self.forget = true;
+            self.to_save = None;
+            return;
+        }
+        let Self { sync, det, digest, epochs, health, alarm, save, to_save, .. } = self;
+        let mut keep = Keep { policy: save, record: to_save };
         for (sig, v) in can::decode(id, data) {
             w.lap(Stage::CanDecode);
-            sync.push_obs(sig, t, v, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s, w));
+            sync.push_obs(sig, t, v, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, &mut keep, t, out, s, w));
             w.lap(Stage::Sync);
         }
         w.lap(Stage::CanDecode);
@@ -154,15 +231,17 @@ impl<'t> Pipeline<'t> {
 
     fn push_fix<W: Stopwatch + ?Sized>(&mut self, t: f64, fix: detector_core::sample::Fix, out: &mut impl FnMut(&Verdict), w: &mut W) {
         self.health.on_fix(t);
-        let Self { sync, det, digest, epochs, health, alarm, .. } = self;
-        sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s, w));
+        let Self { sync, det, digest, epochs, health, alarm, save, to_save, .. } = self;
+        let mut keep = Keep { policy: save, record: to_save };
+        sync.push_fix(fix, &mut |s: &Sample| judge(det, digest, epochs, health, alarm, &mut keep, t, out, s, w));
         w.lap(Stage::Sync);
     }
 
     /// Emits what is pending (end of a replay), at time `t`.
     pub fn finish(&mut self, t: f64, out: &mut impl FnMut(&Verdict)) {
-        let Self { sync, det, digest, epochs, health, alarm, .. } = self;
-        sync.flush(&mut |s: &Sample| judge(det, digest, epochs, health, alarm, t, out, s, &mut NoStopwatch));
+        let Self { sync, det, digest, epochs, health, alarm, save, to_save, .. } = self;
+        let mut keep = Keep { policy: save, record: to_save };
+        sync.flush(&mut |s: &Sample| judge(det, digest, epochs, health, alarm, &mut keep, t, out, s, &mut NoStopwatch));
     }
 
     /// What is owed to the bus at `now`: an alarm frame (pending, or the latched alarm's
@@ -174,8 +253,15 @@ impl<'t> Pipeline<'t> {
     }
 }
 
-/// One synchronised sample through the detector into the digest, the health and the alarm
-/// outbox, and out. The time before it belongs to the synchroniser that emitted the sample.
+/// The save policy and the record it holds for the store.
+struct Keep<'a> {
+    policy: &'a mut SavePolicy,
+    record: &'a mut Option<Record>,
+}
+
+/// One synchronised sample through the detector into the digest, the health, the alarm outbox
+/// and the save policy, and out. The time before it belongs to the synchroniser that emitted the
+/// sample.
 #[allow(clippy::too_many_arguments)]
 fn judge<W: Stopwatch + ?Sized>(
     det: &mut Detector<'_, Predictor<'_>>,
@@ -183,6 +269,7 @@ fn judge<W: Stopwatch + ?Sized>(
     epochs: &mut u32,
     health: &mut Health,
     alarm: &mut AlarmOutbox,
+    keep: &mut Keep<'_>,
     now: f64,
     out: &mut impl FnMut(&Verdict),
     s: &Sample,
@@ -194,6 +281,80 @@ fn judge<W: Stopwatch + ?Sized>(
     *epochs = epochs.wrapping_add(1);
     health.on_verdict(&v, now);
     alarm.on_verdict(&v);
+    // Asked of the detector only when the policy says so (the car has stood for seconds).
+    if keep.policy.due(now, &v) {
+        keep.policy.saved(now);
+        if let Some(r) = det.calibration_record() {
+            *keep.record = Some(r);
+        }
+    }
     out(&v);
     w.lap(Stage::Output);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::health::{decode_status, StatusPage};
+    use crate::store::Loaded;
+    use detector_core::fusion::{Reason, Reasons, Verdict};
+    use detector_core::profile::LOGGER_1HZ;
+    use detector_core::strategy::location_shift::KinematicPredictor;
+    use detector_core::strategy::StrategySet;
+    use detector_core::wire::calibration::RecordError;
+
+    fn pipeline() -> Pipeline<'static> {
+        Pipeline::new(Config::for_profile(&LOGGER_1HZ), None, Predictor::Kinematic(KinematicPredictor::default()))
+    }
+
+    fn page2(p: &mut Pipeline<'_>) -> StatusPage {
+        let f = p.poll(0.0).status.unwrap();
+        decode_status(f[2].0, &f[2].1).unwrap()
+    }
+
+    #[test]
+    fn a_bad_record_is_reported_and_a_relearn_request_forgets() {
+        let mut p = pipeline();
+        p.calibrate(&Loaded::Invalid(RecordError::BadMagic));
+        assert!(matches!(page2(&mut p), StatusPage::Page2 { faults, calibration: 0, .. } if faults & Faults::CALIBRATION_INVALID != 0));
+        let mut p = pipeline();
+        p.calibrate(&Loaded::FlashError);
+        assert!(matches!(page2(&mut p), StatusPage::Page2 { faults, .. } if faults & Faults::CALIBRATION_STORE != 0));
+        // A relearn request: forgotten, and the store told once.
+        let (id, d) = can::relearn_request();
+        p.on_can(1.0, id as u32, &d, &mut |_| {});
+        assert!(p.take_forget() && !p.take_forget());
+        // A clear request is not a relearn request.
+        let (id, d) = can::clear_request();
+        p.on_can(2.0, id as u32, &d, &mut |_| {});
+        assert!(!p.take_forget());
+    }
+
+    #[test]
+    fn the_new_reasons_reach_the_alarm_frame() {
+        let mut reasons = Reasons::default();
+        reasons.insert(Reason::Track10s);
+        reasons.insert(Reason::VelocityAlong);
+        reasons.insert(Reason::CalibrationContradicted);
+        let v = Verdict {
+            epoch: 3,
+            t: 0.0,
+            ran: StrategySet::EMPTY,
+            fired: StrategySet(8),
+            degraded: StrategySet::EMPTY,
+            reasons,
+            shift: None,
+            motion: None,
+            turn: None,
+            track: None,
+            learning: false,
+            alarm: true,
+            first_alarm: None,
+        };
+        let (id, d) = AlarmFrame::of(&v).encode();
+        let f = AlarmFrame::decode(id, &d).unwrap();
+        assert_eq!(f.reasons, 1 << Reason::Track10s as u32);
+        // Reason 17 is bit 0, reason 19 bit 2.
+        assert_eq!(f.extra_reasons, 0b101);
+    }
 }

@@ -228,8 +228,6 @@ pub fn run<'t>(
 }
 
 /// [`run`], telling `w` where each stage of the pipeline ends (the QEMU run's breakdown).
-/// Generic, so that [`run`]'s [`NoStopwatch`] compiles to nothing and the measured cost per
-/// epoch is the shipped code's.
 #[allow(clippy::too_many_arguments)]
 pub fn run_timed<'t, W: Stopwatch + ?Sized>(
     input: &Input,
@@ -241,10 +239,24 @@ pub fn run_timed<'t, W: Stopwatch + ?Sized>(
     cost: &mut dyn FnMut(u32),
     w: &mut W,
 ) -> Result<Outcome, InputError> {
-    let sc = input.scenario(i)?;
     let mut fresh = predictor.clone();
     fresh.reset();
     let mut p = Pipeline::new(cfg, Some(templates), fresh);
+    run_in(&mut p, input, i, clock, cost, w)
+}
+
+/// [`run_timed`] in a pipeline the caller keeps (the QEMU image keeps one in static memory:
+/// a pipeline is 31 KB, and one built on the stack for each scenario left copies of itself
+/// there until the stack ran into the static data). `p` must be fresh: built for this run.
+pub fn run_in<W: Stopwatch + ?Sized>(
+    p: &mut Pipeline<'_>,
+    input: &Input,
+    i: usize,
+    clock: &mut dyn FnMut() -> u32,
+    cost: &mut dyn FnMut(u32),
+    w: &mut W,
+) -> Result<Outcome, InputError> {
+    let sc = input.scenario(i)?;
     let onset = if sc.kind == Kind::Attack { sc.from_s } else { f64::INFINITY };
     let mut o = Outcome {
         epochs: 0,
