@@ -3,7 +3,9 @@
 //! This image runs the firmware's per-epoch path exactly as `firmware/app` does (a CAN frame in,
 //! UART bytes split into NMEA sentences in, the synchroniser, all strategies with the LSTM's
 //! integer kernel and the turn templates, verdicts, the alarm outbox, the status frames, the
-//! transmit queue and the watchdog gate; UART bytes told apart into NMEA and UBX by the framer) on input the optimiser can assume nothing about
+//! transmit queue and the watchdog gate; UART bytes told apart into NMEA and UBX by the framer;
+//! the car's calibration record decoded from any bytes at start-up, the pipeline started from it,
+//! the record offered for saving and encoded) on input the optimiser can assume nothing about
 //! (`core::hint::black_box`). It links `panic-never`, whose panic handler calls an undefined
 //! symbol: if any panic path (an index the compiler cannot prove in range, an `unwrap`, an
 //! integer overflow check, a division by zero) survives optimisation anywhere in that path, in
@@ -38,6 +40,14 @@ fn main() -> ! {
     let cfg = Config::for_predictor(&UBLOX_10HZ, &predictor);
     let templates = TemplateSet::parse(DEFAULT_TEMPLATES).ok();
     let mut p = Pipeline::new(cfg, templates, predictor);
+    // Start-up: whatever bytes the store read, decoded and loaded.
+    let stored: [u8; 96] = black_box([0; 96]);
+    let len: usize = black_box(76);
+    let loaded = match detector_core::wire::calibration::Record::decode(stored.get(..len).unwrap_or(&stored)) {
+        Ok(r) => gnss_guard_board::store::Loaded::Record(r),
+        Err(e) => gnss_guard_board::store::Loaded::Invalid(e),
+    };
+    p.calibrate(&loaded);
     let mut split = Framer::default();
     let mut gate = WatchdogGate::default();
     let mut txq = TxQueue::default();
@@ -80,6 +90,11 @@ fn main() -> ! {
             }
         }
         black_box(gate.may_feed(&p.health, t));
+        // What the store task is handed.
+        if let Some(r) = p.take_calibration() {
+            black_box(r.encode());
+        }
+        black_box(p.take_forget());
         if black_box(false) {
             p.finish(t, &mut sink);
         }

@@ -17,11 +17,12 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use detector_core::fusion::Config;
 use detector_core::profile::UBLOX_10HZ;
-use detector_core::stage::{Stage, Stopwatch};
+use detector_core::stage::{NoStopwatch, Stage, Stopwatch};
 use detector_core::strategy::location_shift::lstm::LstmPredictor;
-use detector_core::strategy::location_shift::{KinematicPredictor, Predictor};
+use detector_core::strategy::location_shift::{KinematicPredictor, Predictor, ShiftPredictor};
 use detector_core::strategy::turn::knn::classify;
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
+use gnss_guard_board::pipeline::Pipeline;
 use gnss_guard_board::replay::{self, Input};
 use panic_semihosting as _;
 use stm32_metapac as _;
@@ -42,14 +43,39 @@ fn fail(msg: &str) -> ! {
     }
 }
 
+/// The one pipeline every replay of this image runs in, made afresh in place for each
+/// ([`Pipeline::restart`]): 31 KB, and built on the stack for each scenario its copies ran the
+/// stack past the bottom of RAM.
+static PIPE: static_cell::StaticCell<Pipeline<'static>> = static_cell::StaticCell::new();
+
+/// Scenario `i` in `pipe`, rebuilt for this run with `cfg` and a fresh copy of `predictor`.
+#[allow(clippy::too_many_arguments)]
+fn replay_in<W: detector_core::stage::Stopwatch + ?Sized>(
+    pipe: &mut Pipeline<'static>,
+    input: &Input,
+    i: usize,
+    cfg: Config,
+    templates: TemplateSet<'static>,
+    predictor: &Predictor<'static>,
+    clock: &mut dyn FnMut() -> u32,
+    cost: &mut dyn FnMut(u32),
+    w: &mut W,
+) -> Result<replay::Outcome, replay::InputError> {
+    let mut fresh = predictor.clone();
+    fresh.reset();
+    pipe.restart(cfg, Some(templates), fresh);
+    replay::run_in(pipe, input, i, clock, cost, w)
+}
+
 /// SysTick ticks spent on every epoch of every drive scenario (not the outage, whose first
 /// epoch after the gap carries the gap's CAN decoding), replayed with this configuration, into
 /// `costs` (one buffer reused: the stack holds one 16 KiB vector, not one per run).
-fn epoch_costs<'t>(
+fn epoch_costs(
+    pipe: &mut Pipeline<'static>,
     input: &Input,
     cfg: Config,
-    templates: TemplateSet<'t>,
-    predictor: &Predictor<'t>,
+    templates: TemplateSet<'static>,
+    predictor: &Predictor<'static>,
     clock: &mut dyn FnMut() -> u32,
     costs: &mut heapless::Vec<u32, MAX_EPOCHS>,
 ) {
@@ -61,7 +87,7 @@ fn epoch_costs<'t>(
                 let _ = costs.push(c);
             }
         };
-        if replay::run(input, i, cfg, templates, predictor, clock, &mut cost).is_err() {
+        if replay_in(pipe, input, i, cfg, templates, predictor, clock, &mut cost, &mut NoStopwatch).is_err() {
             fail("replay failed");
         }
     }
@@ -94,7 +120,7 @@ impl Stopwatch for TickWatch {
 
 /// Where an epoch's instructions go: every non-outage scenario again, with a stopwatch at each
 /// stage boundary (its own cost, a SysTick read per boundary, lands in the next stage).
-fn stage_breakdown<'t>(input: &Input, cfg: Config, templates: TemplateSet<'t>, predictor: &Predictor<'t>, clock: &mut dyn FnMut() -> u32) {
+fn stage_breakdown(pipe: &mut Pipeline<'static>, input: &Input, cfg: Config, templates: TemplateSet<'static>, predictor: &Predictor<'static>, clock: &mut dyn FnMut() -> u32) {
     let mut w = TickWatch::new();
     let mut epochs = 0u64;
     let mut epoch_ticks = 0u64;
@@ -106,7 +132,7 @@ fn stage_breakdown<'t>(input: &Input, cfg: Config, templates: TemplateSet<'t>, p
             epochs += 1;
             epoch_ticks += c as u64;
         };
-        if replay::run_timed(input, i, cfg, templates, predictor, clock, &mut cost, &mut w).is_err() {
+        if replay_in(pipe, input, i, cfg, templates, predictor, clock, &mut cost, &mut w).is_err() {
             fail("replay failed");
         }
     }
@@ -273,6 +299,7 @@ fn main() -> ! {
         last = now;
         total
     };
+    let pipe = PIPE.init_with(|| Pipeline::new(cfg, Some(templates), predictor.clone()));
     let mut costs: heapless::Vec<u32, MAX_EPOCHS> = heapless::Vec::new();
     let mut digests: heapless::Vec<gnss_guard_board::pipeline::Digest, 8> = heapless::Vec::new();
     let mut all = true;
@@ -285,7 +312,7 @@ fn main() -> ! {
                 let _ = costs.push(c);
             }
         };
-        let Ok(o) = replay::run(&input, i, cfg, templates, &predictor, &mut clock, &mut cost) else { fail("replay failed") };
+        let Ok(o) = replay_in(pipe, &input, i, cfg, templates, &predictor, &mut clock, &mut cost, &mut NoStopwatch) else { fail("replay failed") };
         let pass = o.pass(&sc, replay::MAX_ALARM_DELAY_S);
         all &= pass;
         let _ = digests.push(o.digest);
@@ -317,19 +344,19 @@ fn main() -> ! {
         all = false;
         hprintln!("qemu-run: the CAN queue could overflow during the longest call: FAIL");
     }
-    stage_breakdown(&input, cfg, templates, &predictor, &mut clock);
+    stage_breakdown(pipe, &input, cfg, templates, &predictor, &mut clock);
     turn_query_cost(templates, &mut clock);
     geodesy_cost(&mut clock);
     // The cost of the paper's strategies alone: the same scenarios without the track check.
     let mut paper_cfg = cfg;
     paper_cfg.track.enabled = false;
-    epoch_costs(&input, paper_cfg, templates, &predictor, &mut clock, &mut costs);
+    epoch_costs(pipe, &input, paper_cfg, templates, &predictor, &mut clock, &mut costs);
     report("instructions per epoch (paper strategies only)", &mut costs);
     // Strategy 1's predictors alone: the same scenarios with the kinematic predictor, and the
     // LSTM's integer step by itself on the inputs of a cruising car.
     let kin = Predictor::Kinematic(KinematicPredictor::default());
     let kin_cfg = Config::for_predictor(&UBLOX_10HZ, &kin);
-    epoch_costs(&input, kin_cfg, templates, &kin, &mut clock, &mut costs);
+    epoch_costs(pipe, &input, kin_cfg, templates, &kin, &mut clock, &mut costs);
     report("instructions per epoch (kinematic predictor)", &mut costs);
     if let Predictor::Lstm(mut l) = predictor {
         costs.clear();
