@@ -243,6 +243,21 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         }
     }
 
+    /// The detector made afresh, in place, as [`Detector::new`] then [`Detector::with_turns`]
+    /// would make it (each part built in turn: no whole detector of 20 KB on the stack).
+    pub fn reinit(&mut self, cfg: Config, predictor: P, templates: Option<TemplateSet<'t>>) {
+        self.cfg = cfg;
+        self.predictor = predictor;
+        self.motion = Motion::new(cfg.motion);
+        self.turn = templates.map(|t| TurnStrategy::new(cfg.turn, Some(t)));
+        self.track.reinit(cfg.track);
+        self.prev_t = None;
+        self.epoch = 0;
+        self.first_alarm = None;
+        self.settling_since = None;
+        self.settled = false;
+    }
+
     /// Adds strategy 2 with these turn templates.
     pub fn with_turns(mut self, templates: TemplateSet<'t>) -> Self {
         self.turn = Some(TurnStrategy::new(self.cfg.turn, Some(templates)));
@@ -260,6 +275,12 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
     pub fn with_calibration(mut self, r: &Record) -> Self {
         self.track = TrackCheck::with_record(self.cfg.track, r);
         self
+    }
+
+    /// [`Detector::with_calibration`] in place (`None`: forget it, the car is learnt afresh);
+    /// the track check restarts.
+    pub fn set_calibration(&mut self, r: Option<&Record>) {
+        self.track.load(r);
     }
 
     /// What this drive learnt about the car, to store for its next drive: `None` before it is

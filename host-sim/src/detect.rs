@@ -234,8 +234,9 @@ pub fn summarize(verdicts: &[Verdict], profile: &ReceiverProfile) -> Summary {
 /// epochs (each epoch is a fix), then its frames decoded through the DBC's fields. On a replay
 /// nothing is dropped on a bus, so the CAN counters stay 0. One line per second of drive time,
 /// through GNSS gaps too (where the device says `blind`), as `(t, json)`.
-pub fn status_lines(verdicts: &[Verdict]) -> Vec<(f64, Value)> {
+pub fn status_lines(verdicts: &[Verdict], calibration_stored: bool) -> Vec<(f64, Value)> {
     let mut st = StatusStream::default();
+    st.h.calibration_stored = calibration_stored;
     let mut out = Vec::new();
     for v in verdicts {
         st.on_verdict(v, &mut out);
@@ -291,8 +292,9 @@ impl StatusStream {
                     o["nmea_errors"] = json!(nmea_errors);
                     o["restarts"] = json!(restarts);
                 }
-                Some(StatusPage::Page2 { faults, reset_cause, alarm_retries, detector_restarts, receiver_spoofing }) => {
+                Some(StatusPage::Page2 { faults, reset_cause, alarm_retries, detector_restarts, receiver_spoofing, calibration }) => {
                     o["receiver_spoofing"] = json!(receiver_spoofing);
+                    o["calibration"] = json!(["learning", "learnt", "stored", "contradicted"].get(calibration as usize).copied().unwrap_or("unknown"));
                     o["faults"] = json!(faults);
                     o["reset_cause"] = json!(reset_cause);
                     o["alarm_retries"] = json!(alarm_retries);

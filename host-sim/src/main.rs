@@ -490,7 +490,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 None => None,
             };
             let summary = detect::summarize(&verdicts, p);
-            let status = detect::status_lines(&verdicts);
+            let status = detect::status_lines(&verdicts, stored.is_some());
             let mut out = std::io::BufWriter::new(std::io::stdout().lock());
             use std::io::Write;
             // Verdicts and, once a second of drive time, the device's status, in time order.

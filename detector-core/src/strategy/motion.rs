@@ -137,7 +137,7 @@ impl Motion {
         }
         // Positions kept must be earlier and within the baseline.
         for slot in self.recent.iter_mut() {
-            if slot.is_some_and(|(t, _)| !(t < s.t) || s.t - t > POS_BASELINE_S + 1.5) {
+            if slot.is_some_and(|(t, _)| t.is_nan() || t >= s.t || s.t - t > POS_BASELINE_S + 1.5) {
                 *slot = None;
             }
         }
@@ -156,7 +156,13 @@ impl Motion {
     pub fn step(&mut self, s: &Sample) -> Option<MotionOutcome> {
         let c = self.cfg;
         let wheel_v = s.wheel_speed().get();
-        let pos_speed = self.position_speed(s);
+        // Only needed (and kept) where the receiver reports no speed.
+        let pos_speed = if s.gnss_speed.is_valid() {
+            self.recent = [None; POS_KEPT];
+            None
+        } else {
+            self.position_speed(s)
+        };
         // Without a reported speed: the epoch's shift and the baseline's speed must agree (both
         // above the moving threshold to move, both below the standing one to stand): position
         // noise must then fool both, and the baseline's lag touches only the transitions.

@@ -212,7 +212,7 @@ fn rate_95(sweep: &[DriftSweepPoint], class: &str, along: bool, within: u32) -> 
             30 => d.within_30s,
             _ => d.within_60s,
         };
-        (d.scenarios > 0).then(|| hit as f64 >= 0.95 * d.scenarios as f64)
+        (d.scenarios > 0).then_some(hit as f64 >= 0.95 * d.scenarios as f64)
     };
     let mut best = None;
     for p in pts.iter().rev() {

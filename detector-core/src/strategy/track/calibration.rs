@@ -237,7 +237,7 @@ impl Calibration {
         let src = if self.sets[Source::Velocity as usize].learnt_s > 0.0 { Source::Velocity } else { Source::Position };
         let b = self.set(src).fits.get(self.set(src).best).map_or(0.0, |f| f.b)
             + self.stored.map_or(0.0, |r| r.learnt_s.min(self.lim.tau_s) * 225.0);
-        if !(b > 0.0) {
+        if b.is_nan() || b <= 0.0 {
             return 0.05;
         }
         let sd = libm::sqrtf(sigma * sigma * kappa.max(1.0) / b) / self.scale.max(0.5);
@@ -283,7 +283,7 @@ impl Calibration {
     /// [`CalLimits::scale_rate_per_s`]): a young calibration converges, an old one barely moves.
     #[allow(clippy::too_many_arguments)]
     pub fn learn(&mut self, src: Source, g: (f32, f32), d: &[(f32, f32); DELAYS], derot: (f32, f32), dt: f32, sigma: f32, kappa: f32) {
-        if !(dt.is_finite() && dt > 0.0) || !(g.0.is_finite() && g.1.is_finite()) || !d.iter().all(|x| x.0.is_finite() && x.1.is_finite()) {
+        if !(dt.is_finite() && dt > 0.0 && g.0.is_finite() && g.1.is_finite() && d.iter().all(|x| x.0.is_finite() && x.1.is_finite())) {
             return;
         }
         let lim = self.lim;
@@ -304,7 +304,8 @@ impl Calibration {
             // Calibrated: the delay moves one candidate per dwell, within its bound around a
             // stored record.
             let (lo, hi) = set.anchor.map_or((0, DELAYS - 1), |k0| (k0.saturating_sub(span), (k0 + span).min(DELAYS - 1)));
-            let target = free.clamp(lo, hi);
+            // max/min, not clamp: clamp panics on bounds it cannot prove ordered.
+            let target = free.max(lo).min(hi);
             if target != set.best && set.dwell_s >= lim.delay_dwell_s {
                 set.best = if target > set.best { set.best + 1 } else { set.best - 1 };
                 set.dwell_s = 0.0;
@@ -334,8 +335,9 @@ impl Calibration {
     /// says (it steers no judgement: it is only compared with the stored record, so a record the
     /// car contradicts is found even while the evidence freezes everything else): then the
     /// contradiction test of the scale.
+    #[allow(clippy::too_many_arguments)]
     pub fn learn_own(&mut self, src: Source, g: (f32, f32), d: &[(f32, f32); DELAYS], derot: (f32, f32), dt: f32, sigma: f32, kappa: f32) {
-        if !(dt.is_finite() && dt > 0.0) || !(g.0.is_finite() && g.1.is_finite()) {
+        if !(dt.is_finite() && dt > 0.0 && g.0.is_finite() && g.1.is_finite()) {
             return;
         }
         let Some(set) = self.sets.get_mut(src as usize) else { return };
@@ -373,7 +375,7 @@ impl Calibration {
             return;
         }
         let step = rate * dt * self.scale;
-        let moved = self.scale + (s - self.scale).clamp(-step, step);
+        let moved = self.scale + (s - self.scale).max(-step).min(step);
         self.scale = match self.stored {
             Some(r) => {
                 let b = self.lim.scale_bound * r.scale;

@@ -548,11 +548,34 @@ impl TrackCheck {
         self.learnt_s.max(lo).min(c.learn_tau_s.max(lo))
     }
 
+    /// The check made afresh from a stored record (or none: the car is learnt), in place.
+    pub fn load(&mut self, r: Option<&Record>) {
+        self.stored = r.filter(|r| r.plausible().is_ok()).copied();
+        self.reset();
+    }
+
+    /// A check made afresh for this configuration, in place (no stored record): as
+    /// [`TrackCheck::new`] without building an 11 KB one on the stack.
+    pub fn reinit(&mut self, cfg: TrackConfig) {
+        self.cfg = cfg;
+        self.stored = None;
+        self.reset();
+    }
+
     /// Power-up: forgets what this drive learnt (back to the stored record, if any).
     pub fn reset(&mut self) {
-        let stored = self.stored;
-        *self = TrackCheck::new(self.cfg);
-        self.stored = stored;
+        let cfg = self.cfg;
+        self.c = cfg.threshold();
+        self.restart();
+        self.vel = VelocityTest::new(cfg.velocity);
+        self.quiet_sigma = self.vel.sigma();
+        self.last_delay_var_across = 0.0;
+        self.bias = 0.0;
+        self.bias_weight = 0.0;
+        self.rot = Rotation::new(&cfg);
+        self.cal = Calibration::new(cfg.cal);
+        self.noise = [NoiseFit::default(); 2];
+        self.learnt_s = 0.0;
         self.load_stored();
     }
 
@@ -874,7 +897,7 @@ impl TrackCheck {
         };
         self.last_pred = Some((p.t, pred));
         let sp = libm::sqrtf(norm2(pred));
-        if !(sp >= vc.min_speed_mps) {
+        if sp.is_nan() || sp < vc.min_speed_mps {
             return [None, None];
         }
         let u = scale2(pred, 1.0 / sp);

@@ -45,7 +45,8 @@ impl Rotation {
         let mut r = Rotation::new(cfg);
         if eps.is_finite() && eps_sd.is_finite() {
             r.x[2] = eps.clamp(-MAX_SCALE_ERROR, MAX_SCALE_ERROR);
-            let sd = eps_sd.clamp(1e-4, cfg.gyro_scale_sd.max(1e-4));
+            // max/min, not clamp: clamp panics on bounds it cannot prove ordered.
+            let sd = eps_sd.max(1e-4).min(cfg.gyro_scale_sd.max(1e-4));
             r.p[2][2] = sd * sd;
         }
         r

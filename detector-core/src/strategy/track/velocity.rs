@@ -326,7 +326,8 @@ impl VelocityTest {
             let Some((r, v)) = pair.filter(|(r, v)| r.is_finite() && v.is_finite()) else { continue };
             ch.update_sigma(t, r, &cfg, floor);
             let z = r / libm::sqrtf(ch.sigma * ch.sigma + v.max(0.0));
-            let zc = z.clamp(-cfg.clip, cfg.clip);
+            // max/min, not clamp: clamp panics on bounds it cannot prove ordered.
+            let zc = z.max(-cfg.clip).min(cfg.clip);
             if let Some(b) = ch.bin_for(t) {
                 b.0 += zc * w;
                 b.1 += w;

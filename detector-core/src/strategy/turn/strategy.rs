@@ -403,7 +403,7 @@ impl<'a> TurnStrategy<'a> {
         if ((last.t - oldest.t) as f32) < c.heading_window_s + c.heading_margin_s() - 0.5 {
             return None; // not enough history yet
         }
-        if !(travel >= HEADING_MIN_TRAVEL_M) {
+        if travel.is_nan() || travel < HEADING_MIN_TRAVEL_M {
             return None; // too slow for the bearings to mean anything
         }
         let change = self.seg.course_change(from, end);
