@@ -198,3 +198,55 @@ fn a_wheel_held_in_a_long_bend_before_a_turn_does_not_panic() {
         assert!(v.iter().all(|x| !x.fired.contains(StrategyId::Turn)), "hold {hold_s} s");
     }
 }
+
+/// A car at 15 m/s on a straight road for 90 s, then a left turn (90 deg over 8 s, the wheel at
+/// about 300 deg), then straight again; no gyro. The steering sensor is coarse (2.88 deg steps,
+/// like the sddi_commuter car's): it reads 0.0 bit for bit on the straight. `stuck` keeps it at
+/// 0.0 through the turn too.
+fn coarse_steering_drive(stuck: bool) -> Vec<Sample> {
+    let (dt, v) = (0.2f64, 15.0f32);
+    let mut out = Vec::new();
+    let mut p = LatLon::new(52.0, 5.0);
+    let mut heading = 90.0f64;
+    let mut prev: Option<LatLon> = None;
+    for k in 0..(130.0 / dt) as usize {
+        let t = k as f64 * dt;
+        let turning = (90.0..98.0).contains(&t);
+        let rate = if turning { 90.0 / 8.0 } else { 0.0 }; // deg/s, left
+        heading = detector_core::geo::wrap_360(heading - rate * dt);
+        p = destination(p, heading, v as f64 * dt, EARTH_RADIUS_PAPER_M);
+        let true_steer = if turning { (rate.to_radians() / v as f64 * 2.7).atan().to_degrees() * 15.0 } else { 0.0 };
+        let steer = if stuck { 0.0 } else { (true_steer / 2.88).round() as f32 * 2.88 };
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v);
+        signals[Signal::Steering.index()] = Reading::Valid(steer);
+        out.push(Sample {
+            t,
+            dt_s: if prev.is_some() { dt as f32 } else { 0.0 },
+            pos: p,
+            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, p, EARTH_RADIUS_PAPER_M) as f32)),
+            gnss_speed: Reading::Missing,
+            gnss_course: Reading::Missing,
+            gnss_h_acc: Reading::Missing,
+            signals,
+            ..Default::default()
+        });
+        prev = Some(p);
+    }
+    out
+}
+
+#[test]
+fn a_coarse_sensor_on_a_straight_road_is_healthy_and_one_stuck_through_a_turn_is_not() {
+    let run = |stuck: bool| -> Vec<(f64, bool)> {
+        let mut ts = turn::TurnStrategy::new(turn::TurnConfig::default(), None);
+        coarse_steering_drive(stuck).iter().map(|s| (s.t, matches!(ts.step(s), turn::TurnStep::Degraded))).collect()
+    };
+    // Healthy: 90 s of one value near centre is a straight road, never stuck.
+    let healthy = run(false);
+    assert!(healthy.iter().filter(|(t, _)| *t > 15.0).all(|(_, d)| !d), "a coarse healthy sensor was called stuck");
+    // Stuck at centre: the same until the car turns under it, degraded from the turn on.
+    let stuck = run(true);
+    assert!(stuck.iter().filter(|(t, _)| *t > 15.0 && *t < 90.0).all(|(_, d)| !d), "stuck before the car turned");
+    assert!(stuck.iter().filter(|(t, _)| *t > 100.0).all(|(_, d)| *d), "a sensor at 0 through a 90 deg turn is stuck");
+}

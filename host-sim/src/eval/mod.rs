@@ -13,6 +13,7 @@
 
 pub mod calibrated;
 pub mod fold;
+pub mod full;
 pub mod plan;
 pub mod report;
 pub mod results;
@@ -22,5 +23,6 @@ pub mod stats;
 pub use plan::{plan, EvalOptions, DRIFT_SWEEP_MPS, PRE_ONSET_S, WINDOW_S};
 pub use results::*;
 pub use fold::{Fitted, Protocol};
-pub use run::{drift_sweep, evaluate, full, nuisance_suite, run_scenario, run_scenario_with, verdicts, Folds};
+pub use full::full;
+pub use run::{drift_sweep, evaluate, nuisance_suite, run_scenario, run_scenario_with, verdicts, Folds};
 pub use stats::{decisions, decisions_to_alarm, digest, predictor_stats, quantization, validation_runs};

@@ -1,12 +1,11 @@
 //! Running an evaluation: clean drives (false alarms) and attacked windows (detection) through
-//! the detector, in parallel (rayon) and deterministically per seed; the drift sweep; and the
-//! full evaluation the command line runs (both predictors, the paper's strategies alone, the
-//! int8 fidelity, strategy 2's classifier).
+//! the detector, in parallel (rayon) and deterministically per seed; the drift sweep and the
+//! nuisance suite.
 
 use super::fold::{self, Fitted, LSTM_SOURCES};
 use super::plan::{capacity, config_for, plan, EvalOptions, DRIFT_SWEEP_MPS, PRE_ONSET_S, WINDOW_S};
 use super::results::*;
-use super::stats::{alarm_episodes, decisions, decisions_to_alarm, digest, drift_limits, kind_stats, poisson_upper95, predictor_stats, quantization};
+use super::stats::{alarm_episodes, decisions, decisions_to_alarm, digest, kind_stats, poisson_upper95};
 use crate::dataset::Drive;
 use crate::detect::{self, PredictorKind};
 use detector_core::fusion::{Config, Verdict};
@@ -330,38 +329,6 @@ pub fn evaluate(drives: &[Drive], o: &EvalOptions, data: &str, data_dir: &str, f
         predictors: None,
         quantization: None,
     }
-}
-
-/// The evaluation the command line runs: the folds fitted (leave-one-source-out unless asked
-/// otherwise), [`evaluate`] with the chosen predictor, then the same drives and scenarios judged
-/// by the paper's strategies alone, with each predictor side by side and with the f32 LSTM
-/// (int8 fidelity), the slow drifts at fixed rates and their limits, the nuisance suite
-/// (`nuisance_variants` draws per kind and drive; 0 skips it), and strategy 2's classifier on
-/// the held-out turns.
-pub fn full(drives: Vec<Drive>, o: &EvalOptions, data: &str, data_dir: &str, nuisance_variants: usize, progress: &(dyn Fn() + Sync)) -> Report {
-    let folds = fold::folds(&drives, o.protocol);
-    let mut r = evaluate(&drives, o, data, data_dir, &folds, progress);
-    let paper = EvalOptions { tweak: Some(|c| c.track.enabled = false), ..*o };
-    r.paper_strategies_only = Some(evaluate(&drives, &paper, data, data_dir, &folds, &|| {}).attacks);
-    let runs: BTreeMap<PredictorKind, Report> = [PredictorKind::Kinematic, PredictorKind::Lstm, PredictorKind::LstmF32]
-        .into_iter()
-        .map(|k| (k, if k == o.predictor { r.clone() } else { evaluate(&drives, &EvalOptions { predictor: k, ..*o }, data, data_dir, &folds, &|| {}) }))
-        .collect();
-    r.predictors = Some([PredictorKind::Kinematic, PredictorKind::Lstm].into_iter().map(|k| (k.name(), predictor_stats(k, &drives, &runs[&k]))).collect());
-    r.quantization = Some(quantization(&drives, &runs[&PredictorKind::Lstm], &runs[&PredictorKind::LstmF32]));
-    let sweep = drift_sweep(&drives, o, &folds);
-    r.drift_limit = Some(drift_limits(&sweep, |class| track_bound_10s_mps(&drives, class, o, &folds)));
-    r.drift_sweep = Some(sweep);
-    r.calibrated = Some(super::calibrated::calibrated_cars(&drives, o, &folds));
-    if nuisance_variants > 0 {
-        let (per, total) = nuisance_suite(&drives, o, &folds, nuisance_variants, progress);
-        r.nuisance = Some(per);
-        r.nuisance_total = Some(total);
-    }
-    let mut turn_drives = drives;
-    turn_drives.extend(crate::turns::sim_drives().into_iter().filter(|d| d.name.contains("seed2")));
-    r.turns = Some(crate::turns::evaluate_default(&turn_drives));
-    r
 }
 
 /// The rate of a slow drift whose 10 s offset equals the track check's threshold, m/s: the

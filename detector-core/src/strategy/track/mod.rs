@@ -50,20 +50,21 @@
 //! learnt about the car is kept unless the detector restarts it.
 
 pub mod calibration;
+mod config;
 mod history;
+mod outcome;
 mod rotation;
 pub mod velocity;
 
-use self::calibration::{CalLimits, Calibration, Contradiction, Record, Source, DELAYS, DELAY_MIN_S, DELAY_STEP_S};
+use self::calibration::{Calibration, Record, Source, DELAYS, DELAY_MIN_S, DELAY_STEP_S};
 use self::history::{Entry, History, MAX_STEP_S};
 use self::rotation::{wrap_pi, Rotation, MAX_BIAS_DEGPS};
-use self::velocity::{VelocityConfig, VelocityOutcome, VelocityTest, ACROSS};
+pub use self::config::{TrackConfig, WINDOWS_S};
+pub use self::outcome::{HeadingSource, TrackOutcome, WindowOutcome};
+use self::velocity::{VelocityTest, ACROSS};
 use crate::geo::{to_local, LatLon, EARTH_RADIUS_PAPER_M};
-use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 
-/// The window lengths, seconds.
-pub const WINDOWS_S: [f32; 2] = [10.0, 30.0];
 /// Enough history for the longest window and delay, with a margin.
 const SPAN_NEEDED_S: f64 = 30.0 + 3.0 + 0.5;
 /// The local frame's origin follows the car every this many metres (keeps the flat-earth
@@ -93,104 +94,6 @@ const GRID_POS_END: usize = DELAYS + 7;
 const GRID_VEL_END: usize = DELAYS + 11;
 /// Grid points per pair.
 const GRID_PAIR: usize = 8;
-
-/// Tuning of the track check. See the module documentation.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrackConfig {
-    pub enabled: bool,
-    /// False alarms per hour of driving the position windows' threshold is derived from.
-    pub budget_per_hour: f32,
-    /// Prior noise of a window's GNSS ends, metres (the receiver class's stated accuracy), and
-    /// prior relative DR error.
-    pub s0_prior_m: f32,
-    pub k_prior: f32,
-    /// How many seconds of data the priors weigh as.
-    pub prior_weight_s: f32,
-    /// Floors of the learnt noise: metres, and relative.
-    pub s0_floor_m: f32,
-    pub k_floor: f32,
-    /// Time constant of the noise learning after the warm-up, seconds.
-    pub learn_tau_s: f32,
-    /// Seconds of driving (windows of at least 30 m) learnt before the windows judge.
-    pub warmup_s: f32,
-    /// The car drives (learns, is judged) above this wheel speed, m/s.
-    pub min_speed_mps: f32,
-    /// How long `z` must stay above the threshold to fire, seconds: longer than a GNSS
-    /// multipath excursion lasts (it returns; a spoofer's offset does not).
-    pub persist_s: f32,
-    /// The fast path: both windows above their thresholds, the 10 s window above twice its
-    /// own, for this long, seconds.
-    pub fast_persist_s: f32,
-    /// The windows do not judge when they cannot see a drift slower than this within 10 s, m/s.
-    pub max_bound_mps: f32,
-    /// Random walk of the DR frame's rotation (gyro noise, scale error in turns), deg^2/s.
-    pub q_rotation: f32,
-    /// Random walk of the gyro's residual bias, (deg/s)^2/s.
-    pub q_bias: f32,
-    /// Uncertainty of the frame's alignment from the GNSS heading after a (re)start, deg.
-    pub align_sd_deg: f32,
-    /// Uncertainty of the gyro's bias at power-up, before any standstill, deg/s.
-    pub bias_sd_degps: f32,
-    /// Uncertainty of the gyro's scale at power-up (relative), and its random walk, 1/s.
-    pub gyro_scale_sd: f32,
-    pub q_gyro_scale: f32,
-    /// The frame counts as aligned (windows are judged) below this rotation uncertainty, deg.
-    pub aligned_sd_deg: f32,
-    /// The gyro's residual bias while a GNSS gap is bridged, deg/s.
-    pub gap_gyro_sd_degps: f32,
-    /// Seconds of driving after which a check that still cannot judge stops saying `learning`
-    /// and, if its bound says it cannot tell, is degraded.
-    pub give_up_s: f32,
-    /// The velocity test.
-    pub velocity: VelocityConfig,
-    /// The limits of what is learnt about the car.
-    pub cal: CalLimits,
-}
-
-impl TrackConfig {
-    /// The configuration for a receiver profile: its stated accuracy as the prior. The
-    /// process noises are a MEMS gyro's (angle random walk and bias instability of automotive
-    /// yaw-rate sensors, with margin), not fitted on any drive.
-    pub fn for_profile(p: &ReceiverProfile) -> Self {
-        TrackConfig {
-            enabled: true,
-            budget_per_hour: 0.01,
-            s0_prior_m: p.gnss_error_m,
-            k_prior: 0.03,
-            prior_weight_s: 20.0,
-            s0_floor_m: 1.0,
-            k_floor: 0.01,
-            learn_tau_s: 300.0,
-            warmup_s: 30.0,
-            min_speed_mps: 3.0,
-            persist_s: 10.0,
-            fast_persist_s: 3.0,
-            max_bound_mps: 5.0,
-            q_rotation: 0.01,
-            q_bias: 1.0e-5,
-            align_sd_deg: 20.0,
-            bias_sd_degps: 0.5,
-            gyro_scale_sd: 0.05,
-            q_gyro_scale: 1.0e-8,
-            aligned_sd_deg: 2.0,
-            give_up_s: 300.0,
-            gap_gyro_sd_degps: 0.2,
-            velocity: VelocityConfig::default(),
-            cal: CalLimits::default(),
-        }
-    }
-
-    /// The position windows' threshold on `z` for the budget (see the module documentation).
-    pub fn threshold(&self) -> f32 {
-        let tests_per_hour = 3600.0 / WINDOWS_S[0] + 3600.0 / WINDOWS_S[1];
-        libm::sqrtf(libm::logf(tests_per_hour / self.budget_per_hour.max(1e-9)).max(1.0))
-    }
-
-    /// The distance a window must cover to be judged: half its length at the minimum speed.
-    fn judge_dist_m(&self, win_s: f32) -> f32 {
-        0.5 * win_s * self.min_speed_mps
-    }
-}
 
 /// Exponentially weighted least squares of `|e|^2 = s0^2 + k^2 L^2` (x = L^2, y = |e|^2).
 /// `|e|^2`'s own spread grows with its mean, so each window weighs `1 / sigma^4(L)` (the
@@ -224,95 +127,6 @@ impl NoiseFit {
         let k2 = slope.max(k_floor * k_floor);
         let s2 = (my - k2 * mx).max(s0_floor * s0_floor);
         (s2, k2)
-    }
-}
-
-/// Where the dead reckoning's heading comes from.
-///
-/// A heading from steering and wheel speed (the bicycle model, its scale and offset learnt by
-/// the same filter) was tried on the two drives with steering and no gyro (openxc_ford,
-/// udacity_ch2): its rotation never settled within 2 degrees, so the check would only ever
-/// learn there. It is not offered.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum HeadingSource {
-    /// Yaw rate (gyro), bias and scale learnt.
-    Gyro,
-    /// The GNSS track itself: no independent heading (a rotated track is invisible).
-    #[default]
-    Gnss,
-}
-
-impl HeadingSource {
-    pub const fn name(self) -> &'static str {
-        match self {
-            HeadingSource::Gyro => "gyro",
-            HeadingSource::Gnss => "gnss",
-        }
-    }
-}
-
-/// One position window's judgement.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct WindowOutcome {
-    /// |e|, metres, and the threshold on it (c sigma(L)), metres.
-    pub e_m: f32,
-    pub threshold_m: f32,
-    /// Distance driven over the window (DR), metres.
-    pub dist_m: f32,
-    pub z: f32,
-}
-
-/// One epoch of the track check.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TrackOutcome {
-    /// The 10 s and 30 s windows, when judged at this epoch.
-    pub windows: [Option<WindowOutcome>; 2],
-    /// Which window fired.
-    pub fired: [bool; 2],
-    /// The velocity test, when it judged a pair at this epoch (its `fired` says which channel
-    /// fired).
-    pub velocity: Option<VelocityOutcome>,
-    /// The stored calibration this drive contradicts, from the epoch it was found on.
-    pub contradiction: Option<Contradiction>,
-    /// The contradiction was found at this epoch (it fires once).
-    pub contradiction_found: bool,
-    /// The learnt delays of the GNSS position and of its velocity (GNSS behind the vehicle
-    /// signals; negative: the vehicle late), s, the velocity's NaN without one, wheel-speed
-    /// scale, rotation of the DR frame (deg) and gyro bias (deg/s).
-    pub delay_s: f32,
-    pub delay_velocity_s: f32,
-    /// The position's delay the fits alone say (before the calibration's rates and bounds), s.
-    pub delay_free_s: f32,
-    pub scale: f32,
-    pub rotation_deg: f32,
-    /// The rotation's uncertainty (1 sigma), deg.
-    pub rotation_sd_deg: f32,
-    pub gyro_bias_degps: f32,
-    /// The heading source, and its learnt scale (true turn over measured turn).
-    pub heading: HeadingSource,
-    pub turn_scale: f32,
-    /// Calibrated: from a stored record, or after the first drive's warm-up.
-    pub calibrated: bool,
-    /// Still learning (the car's calibration on a first drive, the windows' warm-up, or the
-    /// frame not yet aligned).
-    pub learning: bool,
-    /// The position windows' learnt noise leaves them blind to drifts under `max_bound_mps`
-    /// within 10 s, and the velocity test judged nothing: the check cannot tell.
-    pub uninformative: bool,
-    /// The check judges at this epoch: a position window judged, or the velocity test judged
-    /// a pair within the last 1.5 s and is not blind (the hours a false alarm could happen in).
-    pub judging: bool,
-    /// The slowest drift visible within 10 s at this epoch's position-window threshold, m/s.
-    pub bound_10s_mps: Option<f32>,
-    /// The learnt noise per window: `s0` (metres) and `k`.
-    pub noise_s0_m: [f32; 2],
-    pub noise_k: [f32; 2],
-}
-
-impl TrackOutcome {
-    /// Anything fired at this epoch.
-    pub fn any_fired(&self) -> bool {
-        self.fired.iter().any(|f| *f) || self.velocity.is_some_and(|v| v.fired.iter().any(|f| *f)) || self.contradiction_found
     }
 }
 

@@ -8,7 +8,7 @@
 //! `theta` belongs to one stretch of driving (it is the integration constant of the heading);
 //! `omega` and `eps` belong to the car and are part of its calibration.
 
-use super::TrackConfig;
+use super::config::TrackConfig;
 use core::f32::consts::PI;
 
 /// The largest gyro scale error believed.

@@ -71,8 +71,14 @@ pub struct TurnConfig {
     /// receiver's first headings are unsettled).
     pub warmup_s: f32,
     /// A measured steering angle bit-identical for this long while moving is a stuck sensor:
-    /// strategy 2 is degraded until it changes, seconds.
+    /// strategy 2 is degraded until it changes, seconds ...
     pub stuck_s: f32,
+    /// ... unless it is held within this of centre, degrees: a coarse sensor on a straight road
+    /// reads one value for minutes (the sddi_commuter car's steps are 2.88 deg; it holds 0, one
+    /// and two steps). Such a value is stuck only once the car turns under it: the GNSS course
+    /// over `STUCK_TURN_S` changes at a rate the bicycle model gives more than three times this
+    /// band of steering for.
+    pub straight_band_deg: f32,
     /// How late the GNSS course may be behind the car's signals, seconds: a segment's course
     /// change is read this long past its end, and the heading check wants the wheel straight
     /// this long (and an epoch) before its window. Receivers and loggers lag by 0.2 to 1.8 s.
@@ -113,6 +119,7 @@ impl Default for TurnConfig {
             max_gap_s: 3.0,
             warmup_s: 10.0,
             stuck_s: 10.0,
+            straight_band_deg: 8.0,
             gnss_lag_s: 2.5,
         }
     }
@@ -172,8 +179,22 @@ pub struct TurnStrategy<'a> {
     dist: f32,
     next_tick: f64,
     last_gnss_only_alarm_t: f64,
-    /// (value, since when) of the measured steering, for the stuck-sensor check.
-    same_steer: Option<(f32, f64)>,
+    /// The measured steering's value since when, for the stuck-sensor check.
+    same_steer: Option<SameSteer>,
+}
+
+/// The GNSS course is compared over this long while a steering value near centre holds, seconds.
+const STUCK_TURN_S: f64 = 4.0;
+
+/// A measured steering value held bit-identical.
+#[derive(Clone, Copy, Debug)]
+struct SameSteer {
+    value: f32,
+    since: f64,
+    /// The GNSS course (deg) at the start of the current comparison, and when.
+    course: Option<(f32, f64)>,
+    /// The car turned under this value (a stuck sensor even near centre).
+    turned: bool,
 }
 
 impl<'a> TurnStrategy<'a> {
@@ -207,13 +228,33 @@ impl<'a> TurnStrategy<'a> {
         Some((self.cfg.bicycle().steering_deg(yaw, speed).unwrap_or(f32::NAN), true))
     }
 
-    /// Tracks how long the measured steering has stayed bit-identical while moving.
+    /// Tracks how long the measured steering has stayed bit-identical while moving: stuck after
+    /// `stuck_s` outside the straight band, or once the car turned under a value inside it.
     fn steering_stuck(&mut self, steer: f32, s: &Sample) -> bool {
-        let moving = s.wheel_speed().get().or(s.gnss_speed.get()).is_some_and(|v| v >= self.cfg.min_speed_mps);
-        match self.same_steer {
-            Some((v, t0)) if v.to_bits() == steer.to_bits() && s.t >= t0 => moving && (s.t - t0) as f32 >= self.cfg.stuck_s,
+        let speed = s.wheel_speed().get().or(s.gnss_speed.get()).filter(|v| *v >= self.cfg.min_speed_mps);
+        let near_centre = libm::fabsf(steer) <= self.cfg.straight_band_deg;
+        let (heading, bicycle, band) = (self.heading, self.cfg.bicycle(), self.cfg.straight_band_deg);
+        match &mut self.same_steer {
+            Some(h) if h.value.to_bits() == steer.to_bits() && s.t >= h.since => {
+                if let (Some(v), Some(course), true) = (speed, heading, near_centre) {
+                    match h.course {
+                        Some((c0, t0)) if s.t - t0 >= STUCK_TURN_S => {
+                            let d = course - c0;
+                            let d = d - 360.0 * libm::roundf(d / 360.0);
+                            let implied = bicycle.steering_deg(d / (s.t - t0) as f32, v);
+                            h.turned |= implied.is_some_and(|a| libm::fabsf(a) > 3.0 * band);
+                            h.course = Some((course, s.t));
+                        }
+                        Some(_) => {}
+                        None => h.course = Some((course, s.t)),
+                    }
+                } else {
+                    h.course = None;
+                }
+                speed.is_some() && (s.t - h.since) as f32 >= self.cfg.stuck_s && (!near_centre || h.turned)
+            }
             _ => {
-                self.same_steer = Some((steer, s.t));
+                self.same_steer = Some(SameSteer { value: steer, since: s.t, course: None, turned: false });
                 false
             }
         }
