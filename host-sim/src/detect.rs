@@ -236,7 +236,7 @@ pub fn summarize(verdicts: &[Verdict], profile: &ReceiverProfile) -> Summary {
 /// through GNSS gaps too (where the device says `blind`), as `(t, json)`.
 pub fn status_lines(verdicts: &[Verdict], calibration_stored: bool) -> Vec<(f64, Value)> {
     let mut st = StatusStream::default();
-    st.h.calibration_stored = calibration_stored;
+    st.h.set_calibration_stored(calibration_stored);
     let mut out = Vec::new();
     for v in verdicts {
         st.on_verdict(v, &mut out);

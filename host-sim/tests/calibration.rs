@@ -20,5 +20,5 @@ fn profile_error_terms_are_the_measured_maxima() {
         assert!((st[p.name].max_pos_speed_standing_mps as f32) < p.pos_speed_move_mps);
     }
     assert_eq!(st["ublox-10hz"].drives.len(), 2);
-    assert_eq!(st["logger-1hz"].drives.len(), 3);
+    assert_eq!(st["logger-1hz"].drives.len(), 8);
 }

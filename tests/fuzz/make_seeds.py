@@ -106,3 +106,21 @@ BO_ 37 MUXED: 8 XXX
 """
 mp = "SPEED.SPEED wheel_speed 1/3.6\nEXT.YAW yaw_rate -1\nMUXED.ANGLE steering 1.0 bus=0\nMUXED.PEDAL pedal 1\n"
 open("seeds/profile/mixed", "wb").write(dbc.encode() + b"\xff" + mp.encode() + b"\xff" + bytes(random.randrange(256) for _ in range(90)))
+
+# calibration: GGCR records (a 1 Hz car without gyro, a 10 Hz car with one), a damaged copy of
+# each (a flipped bit, a cut), and a store's flash image holding one of them.
+import zlib
+os.makedirs("seeds/calibration", exist_ok=True)
+def ggcr(scale, dpos, dvel, learnt, drives, bias, bias_w, gse, gsd, s0, k, vs, dt):
+    p = struct.pack("<ffffHHffff2f2f2ff", scale, dpos, dvel, learnt, drives, 0, bias, bias_w, gse, gsd, *s0, *k, *vs, dt)
+    b = b"GGCR" + struct.pack("<HH", 1, len(p)) + p
+    return b + struct.pack("<I", zlib.crc32(b))
+nan = float("nan")
+recs = {"no_gyro_1hz": ggcr(1.004, -0.75, nan, 9000.0, 4, nan, 0.0, 0.0, 0.05, (1.6, 2.1), (0.012, 0.011), (0.25, 0.4), 1.0),
+        "gyro_10hz": ggcr(0.991, 0.125, 0.25, 600.0, 1, 0.39, 40.0, -0.01, 0.004, (1.0, 1.2), (0.01, 0.01), (0.12, 0.18), 0.1)}
+for name, b in recs.items():
+    open("seeds/calibration/" + name, "wb").write(b)
+    d = bytearray(b); d[13] ^= 0x40
+    open("seeds/calibration/" + name + "_flipped", "wb").write(bytes(d))
+    open("seeds/calibration/" + name + "_cut", "wb").write(b[:40])
+open("seeds/calibration/empty_flash", "wb").write(b"\xff" * 64)

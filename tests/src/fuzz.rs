@@ -453,7 +453,7 @@ pub fn long_horizon(data: &[u8]) {
 pub type Harness = fn(&[u8]);
 
 /// All harnesses by name (the fuzz targets and the corpus replay use the same names).
-pub const TARGETS: [(&str, Harness); 16] = [
+pub const TARGETS: [(&str, Harness); 17] = [
     ("nmea", nmea),
     ("can", can),
     ("drive_csv", drive_csv),
@@ -470,4 +470,95 @@ pub const TARGETS: [(&str, Harness); 16] = [
     ("replay_input", replay_input),
     ("detector", detector),
     ("long_horizon", long_horizon),
+    ("calibration", calibration),
 ];
+
+/// The calibration record (`wire::calibration`) and the board's store of it. The input is:
+/// a record's bytes as they come (and again with the header and CRC fixed up, to reach every
+/// field's check); a detector started from what decodes, driven for 10 minutes, whose own record
+/// must decode again; and the same bytes as the raw contents of the store's flash (a corrupted
+/// store), which must load as something (never a panic), take a new record, and give it back.
+pub fn calibration(data: &[u8]) {
+    use detector_core::wire::calibration::{Record, RECORD_LEN};
+    let mut tried: Vec<Record> = Vec::new();
+    if let Ok(r) = Record::decode(data) {
+        assert!(r.check().is_ok(), "decode accepted what check refuses: {r:?}");
+        assert_eq!(Record::decode(&r.encode()).map(|x| x.encode()), Ok(r.encode()), "encode/decode round trip");
+        tried.push(r);
+    }
+    if data.len() >= RECORD_LEN {
+        let mut v = data[..RECORD_LEN].to_vec();
+        v[..4].copy_from_slice(b"GGCR");
+        v[4..6].copy_from_slice(&detector_core::wire::calibration::VERSION.to_le_bytes());
+        v[6..8].copy_from_slice(&(RECORD_LEN as u16).to_le_bytes());
+        let n = RECORD_LEN - 4;
+        let crc = detector_core::wire::crc32::crc32(&v[..n]);
+        v[n..].copy_from_slice(&crc.to_le_bytes());
+        if let Ok(r) = Record::decode(&v) {
+            assert!(r.check().is_ok());
+            tried.push(r);
+        }
+    }
+    for r in &tried {
+        let mut d = Detector::new(Config::for_profile(&LOGGER_1HZ), KinematicPredictor::default()).with_calibration(r);
+        let mut pos = LatLon::new(52.0, 5.0);
+        for k in 0..600u32 {
+            let v = 10.0 + 5.0 * ((k / 60) % 2) as f32;
+            let next = detector_core::geo::destination(pos, 90.0, v as f64, detector_core::geo::EARTH_RADIUS_PAPER_M);
+            let mut signals = [Reading::Missing; Signal::COUNT];
+            signals[Signal::WheelSpeed.index()] = Reading::Valid(v);
+            let s = Sample { t: k as f64, dt_s: 1.0, pos: next, shift_m: Reading::Valid(v), gnss_speed: Reading::Missing, gnss_course: Reading::Missing, gnss_h_acc: Reading::Missing, signals, ..Default::default() };
+            pos = next;
+            let out = d.step(&s);
+            assert_eq!(out.ran.0 & out.degraded.0, 0);
+        }
+        if let Some(own) = d.calibration_record() {
+            assert!(Record::decode(&own.encode()).is_ok(), "the detector's own record does not decode: {own:?}");
+        }
+    }
+    store(data, tried.first());
+}
+
+/// The calibration store over a mock flash whose two sectors hold `data` (cycled).
+fn store(data: &[u8], record: Option<&detector_core::wire::calibration::Record>) {
+    use gnss_guard_board::store::{mock::MockFlash, Loaded, Store};
+    let mut flash: MockFlash<2, 1024> = MockFlash::default();
+    if !data.is_empty() {
+        for (b, x) in flash.bytes.iter_mut().zip(data.iter().cycle()) {
+            *b = *x;
+        }
+    }
+    let Some(mut s) = Store::new(flash, 0..2048) else { panic!("the range holds a store") };
+    let _ = block_on(s.load());
+    let r = record.copied().unwrap_or(detector_core::wire::calibration::Record {
+        scale: 1.0,
+        delay_s: [0.5, f32::NAN],
+        learnt_s: 600.0,
+        drives: 1,
+        gyro_bias_degps: f32::NAN,
+        gyro_bias_weight_s: 0.0,
+        gyro_scale_error: 0.0,
+        gyro_scale_sd: 0.05,
+        noise_s0_m: [1.5, 1.5],
+        noise_k: [0.01, 0.01],
+        velocity_sigma_mps: [0.2, 0.3],
+        nominal_dt_s: 1.0,
+    });
+    if block_on(s.save(&r)).is_ok() {
+        match block_on(s.load()) {
+            Loaded::Record(got) => assert_eq!(got.encode(), r.encode(), "a saved record reads back"),
+            other => panic!("saved, then loaded {other:?}"),
+        }
+    }
+}
+
+/// Polls a future that never waits (the mock flash answers at once) to its end.
+fn block_on<F: core::future::Future>(f: F) -> F::Output {
+    let mut cx = core::task::Context::from_waker(core::task::Waker::noop());
+    let mut f = core::pin::pin!(f);
+    loop {
+        if let core::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+    }
+}

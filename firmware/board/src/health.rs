@@ -139,8 +139,8 @@ pub struct Health {
     alarm: bool,
     receiver_spoofing: bool,
     calibration: Calibration,
-    /// The detector started from a stored calibration record.
-    pub calibration_stored: bool,
+    /// The detector started from a stored calibration record (see [`Health::set_calibration_stored`]).
+    calibration_stored: bool,
     next_status_t: Option<f64>,
     /// A poll after this (and before `next_status_t`) is certainly within the period of it: one
     /// comparison instead of a soft-float subtraction per poll (see [`Health::status_due`]).
@@ -172,6 +172,13 @@ impl Health {
     }
 
     /// The detector produced a verdict at `now`.
+    /// The detector (re)started from a stored record, or without one: the state says so from
+    /// the first status on, before the track check's first outcome.
+    pub fn set_calibration_stored(&mut self, stored: bool) {
+        self.calibration_stored = stored;
+        self.calibration = if stored { Calibration::Stored } else { Calibration::Learning };
+    }
+
     pub fn on_verdict(&mut self, v: &Verdict, now: f64) {
         self.epochs = self.epochs.wrapping_add(1);
         if now.is_finite() {

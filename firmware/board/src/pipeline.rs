@@ -132,7 +132,7 @@ impl<'t> Pipeline<'t> {
             }
             Loaded::None => None,
         };
-        self.health.calibration_stored = record.is_some();
+        self.health.set_calibration_stored(record.is_some());
         self.det.set_calibration(record);
     }
 
@@ -191,7 +191,7 @@ impl<'t> Pipeline<'t> {
             // The stored calibration forgotten, here and in the store: the car is learnt
             // afresh (the only way a stored record is ever replaced by a contradicting drive).
             self.det.set_calibration(None);
-            self.health.calibration_stored = false;
+            self.health.set_calibration_stored(false);
             self.forget = true;
             self.to_save = None;
             return;
