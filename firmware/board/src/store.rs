@@ -22,8 +22,27 @@ use embedded_storage_async::nor_flash::NorFlash;
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
 
-/// The map key of the record.
-pub const KEY: u8 = 0x01;
+/// The map's one key: it serialises to no bytes, so every item is the record (or its absence).
+///
+/// A one-byte key (`u8`) made `sequential-storage` 8.0.2 panic on a corrupted sector: the fuzz
+/// target `calibration` found flash bytes for which `fetch_item` takes the key's length from one
+/// read of an item and the item's length from another, and subtracts them (`data_len -
+/// item_key_len` underflows, the slice index panics; `tests/fuzz/regressions/calibration/
+/// crash-242e...`). With a key of length zero that subtraction cannot underflow.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RecordKey;
+
+impl sequential_storage::map::Key for RecordKey {
+    fn serialize_into(&self, _buffer: &mut [u8]) -> Result<usize, sequential_storage::map::SerializationError> {
+        Ok(0)
+    }
+    fn deserialize_from(_buffer: &[u8]) -> Result<(Self, usize), sequential_storage::map::SerializationError> {
+        Ok((RecordKey, 0))
+    }
+}
+
+/// The value written by a relearn request: one byte (an item of length zero is not written).
+const FORGOTTEN: [u8; 1] = [0];
 /// The buffer the crate serialises into: key and record, word aligned.
 const BUF: usize = 128;
 
@@ -47,7 +66,7 @@ pub enum Loaded {
 
 /// The calibration store over a flash region (see the module documentation).
 pub struct Store<F: NorFlash> {
-    map: MapStorage<u8, F, Cache<Uncached, Uncached, Uncached, u8>>,
+    map: MapStorage<RecordKey, F, Cache<Uncached, Uncached, Uncached, RecordKey>>,
     buf: [u8; BUF],
 }
 
@@ -59,23 +78,39 @@ impl<F: NorFlash> Store<F> {
         Some(Store { map: MapStorage::new(flash, cfg, Cache::new_uncached()), buf: [0; BUF] })
     }
 
-    /// The stored record.
+    /// The stored record. A store the crate finds corrupted (bytes no write of ours left, or a
+    /// sector damaged) is erased after it is reported: the car is learnt afresh and the next
+    /// save has clean sectors to write to.
     pub async fn load(&mut self) -> Loaded {
-        match self.map.fetch_item::<&[u8]>(&mut self.buf, &KEY).await {
+        match self.map.fetch_item::<&[u8]>(&mut self.buf, &RecordKey).await {
             Ok(None) => Loaded::None,
-            Ok(Some([])) => Loaded::None,
+            Ok(Some([] | [0])) => Loaded::None,
             Ok(Some(bytes)) => match Record::decode(bytes) {
                 Ok(r) => Loaded::Record(r),
                 Err(e) => Loaded::Invalid(e),
             },
+            Err(sequential_storage::Error::Corrupted { .. }) => {
+                let _ = self.map.erase_all().await;
+                Loaded::FlashError
+            }
             Err(_) => Loaded::FlashError,
         }
     }
 
-    /// Keeps `r` (written after the last one; a sector erased when the other is full).
+    /// Keeps `r` (written after the last one; a sector erased when the other is full), and reads
+    /// it back: a store whose corruption only shows on reading (found by the fuzz target
+    /// `calibration`: a write into a damaged sector succeeded, the read then failed) is erased
+    /// and written once more.
     pub async fn save(&mut self, r: &Record) -> Result<(), StoreError> {
         let bytes: [u8; RECORD_LEN] = r.encode();
-        self.map.store_item(&mut self.buf, &KEY, &&bytes[..]).await.map_err(|_| StoreError)
+        for _ in 0..2 {
+            let wrote = self.map.store_item(&mut self.buf, &RecordKey, &&bytes[..]).await;
+            if wrote.is_ok() && matches!(self.map.fetch_item::<&[u8]>(&mut self.buf, &RecordKey).await, Ok(Some(b)) if b == bytes) {
+                return Ok(());
+            }
+            self.map.erase_all().await.map_err(|_| StoreError)?;
+        }
+        Err(StoreError)
     }
 
     /// The flash back (the store's cache goes with it).
@@ -85,8 +120,7 @@ impl<F: NorFlash> Store<F> {
 
     /// Forgets the record (a relearn request): an empty value is written after it.
     pub async fn forget(&mut self) -> Result<(), StoreError> {
-        let none: &[u8] = &[];
-        self.map.store_item(&mut self.buf, &KEY, &none).await.map_err(|_| StoreError)
+        self.map.store_item(&mut self.buf, &RecordKey, &&FORGOTTEN[..]).await.map_err(|_| StoreError)
     }
 }
 
@@ -340,6 +374,22 @@ mod tests {
                 cut_at += 1;
             }
         }
+    }
+
+    #[test]
+    fn a_corrupted_store_is_erased_and_a_save_reads_back() {
+        // The fuzz target's find (tests/fuzz/regressions/calibration): sectors holding these
+        // bytes, cycled, took a write that then failed to read.
+        extern crate std;
+        let pattern: std::vec::Vec<u8> = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fuzz/regressions/calibration/crash-797e10b5b78ed443b458c2df7b4acbb3c191f7a1")).unwrap();
+        let mut f: MockFlash<2, 1024> = MockFlash::default();
+        for (b, x) in f.bytes.iter_mut().zip(pattern.iter().cycle()) {
+            *b = *x;
+        }
+        let mut s = Store::new(f, 0..2048).unwrap();
+        let _ = block_on(s.load());
+        block_on(s.save(&record(3))).unwrap();
+        assert_eq!(block_on(s.load()), Loaded::Record(record(3)));
     }
 
     #[test]
