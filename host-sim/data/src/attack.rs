@@ -172,11 +172,36 @@ pub fn candidate_onsets_from(kind: AttackKind, samples: &[Sample], first_s: Opti
                     _ => start = None,
                 }
             }
-            // The spoofed track runs along the road ahead: there must be road ahead.
-            out.retain(|&t| t_end - t > 10.0);
+            // The spoofed track runs along the road ahead: there must be road ahead, in time and
+            // in distance (a drive that ends parked has none after its last stop: the "attack"
+            // would leave the position where it is, which is no attack).
+            out.retain(|&t| t_end - t > 10.0 && road_ahead_m(samples, t) >= STOP_ROAD_AHEAD_M);
         }
     }
     out
+}
+
+/// A stop attack needs this much of the car's own later track to move the spoofed car along,
+/// metres (a standstill of 10 s or more at up to 15 m/s, with room).
+const STOP_ROAD_AHEAD_M: f64 = 200.0;
+
+/// The length of the car's track after `t`, metres (steps under 2 m, standing jitter, ignored).
+fn road_ahead_m(samples: &[Sample], t: f64) -> f64 {
+    let mut last: Option<LatLon> = None;
+    let mut d = 0.0;
+    for s in samples.iter().filter(|s| s.t >= t && s.pos.is_valid()) {
+        match last {
+            Some(q) => {
+                let step = haversine_m(q, s.pos, R);
+                if step >= 2.0 {
+                    d += step;
+                    last = Some(s.pos);
+                }
+            }
+            None => last = Some(s.pos),
+        }
+    }
+    d
 }
 
 /// Start times of real turns (> 60 deg within 60 m of track, as `inspect` counts them).
