@@ -155,6 +155,27 @@ fn a_slow_crawl_is_not_a_frozen_position() {
 }
 
 #[test]
+fn a_frozen_position_during_a_crawl_fires_on_distance() {
+    // Overshoot in a queue: 2 m/s at 1 Hz, a position-only receiver (no reported speed) frozen
+    // from epoch 20. Each epoch alone is under GNSS's moving threshold for positions (3 m/s);
+    // the wheels' 25 m against a position that did not move is not.
+    let frozen = std::cell::Cell::new(None);
+    let mut d = Drive::new(1.0, 60, |_| 2.0, |k, p| {
+        if k == 20 { frozen.set(Some(p)); }
+        if k >= 20 { frozen.get().unwrap() } else { p }
+    });
+    for s in d.samples.iter_mut() {
+        s.gnss_speed = Reading::Missing;
+    }
+    let v = d.run();
+    let f = fired(&v, StrategyId::Motion);
+    let first = *f.first().unwrap_or_else(|| panic!("never fired: {:?}", v.iter().map(|x| x.motion).collect::<Vec<_>>()));
+    // GNSS stands from about epoch 21; 25 m at 2 m/s is 13 epochs more, then 3 s of persistence.
+    assert!((33..=45).contains(&first), "{f:?}");
+    assert!(v[first as usize].reasons.contains(Reason::GnssStandingWheelsMoving));
+}
+
+#[test]
 fn time_discontinuity_restarts_without_alarm() {
     let mut d = Drive::new(1.0, 40, |_| 10.0, |_, p| p);
     // A 10 s outage: times jump forward, and the position jumps accordingly.

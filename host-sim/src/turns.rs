@@ -22,10 +22,10 @@ pub const LABEL_TURN_DEG: f32 = 45.0;
 /// ... and `none` when GNSS changed by less than this (the detector's alarm rules are stricter).
 pub const LABEL_STRAIGHT_DEG: f32 = 20.0;
 
-/// Templates per class at most (3 classes x 52 x 66 bytes = 10.3 KB of flash at most; the
+/// Templates per class at most (3 classes x 48 x 66 bytes = 9.5 KB of flash at most; the
 /// firmware image has no room for 64 since sddi_commuter's turns joined the training set, and
-/// on the held-out turns 52 and 64 differ by one turn of 152).
-pub const MAX_PER_CLASS: usize = 52;
+/// on the held-out turns 48 and 64 differ by one turn of 152).
+pub const MAX_PER_CLASS: usize = 48;
 /// Sakoe-Chiba band of the templates, points of 32 (12.5 %).
 pub const BAND: u16 = 4;
 

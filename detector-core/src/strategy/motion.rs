@@ -9,8 +9,10 @@
 //!
 //! - GNSS moving while the wheels stand: the paper's *stop* attack;
 //! - GNSS standing while the wheels turn faster than GNSS's own moving threshold: a frozen
-//!   position, the *overshoot* attack. (A crawl slower than that threshold is below the GNSS
-//!   noise floor and is not judged.)
+//!   position, the *overshoot* attack. A crawl slower than that threshold is below the GNSS
+//!   noise floor epoch by epoch, so there the evidence is distance: the wheels have covered
+//!   [`CRAWL_MIN_M`] since GNSS stood while GNSS's position moved less than [`CRAWL_FRACTION`] of
+//!   it (a frozen position at 2 m/s in a queue, which no single epoch shows).
 
 use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
@@ -95,6 +97,11 @@ fn hysteresis(state: MotionState, v: f32, stop: f32, mov: f32) -> MotionState {
 const POS_BASELINE_S: f64 = 3.0;
 /// Positions kept for that baseline (enough at 1 Hz; at 10 Hz the baseline is the span kept).
 const POS_KEPT: usize = 4;
+/// A crawl is judged once the wheels covered this much while GNSS stood, metres: fifty times
+/// the position noise of a 1 Hz logger at standstill (about 0.5 m).
+pub const CRAWL_MIN_M: f32 = 25.0;
+/// ... and GNSS's position moved less than this fraction of the wheels' distance meanwhile.
+pub const CRAWL_FRACTION: f32 = 0.2;
 
 #[derive(Clone, Debug)]
 pub struct Motion {
@@ -108,6 +115,8 @@ pub struct Motion {
     /// receiver's position noise in speed (learnt only below the moving threshold, so a
     /// spoofer's motion is never learnt as noise).
     standing_ms: f32,
+    /// While the wheels move and GNSS stands: GNSS's position then, and the wheels' distance since.
+    crawl: Option<(crate::geo::LatLon, f32)>,
 }
 
 /// What the position-derived speed's mean square at standstill starts at, (m/s)^2: 0.75 m/s
@@ -118,7 +127,7 @@ const STANDING_RMS_FACTOR: f32 = 4.0;
 
 impl Motion {
     pub fn new(cfg: MotionConfig) -> Self {
-        Self { cfg, wheel: MotionState::Unknown, gnss: MotionState::Unknown, since: None, recent: [None; POS_KEPT], standing_ms: STANDING_MS_PRIOR }
+        Self { cfg, wheel: MotionState::Unknown, gnss: MotionState::Unknown, since: None, recent: [None; POS_KEPT], standing_ms: STANDING_MS_PRIOR, crawl: None }
     }
 
     pub fn reset(&mut self) {
@@ -149,6 +158,26 @@ impl Motion {
         let (t0, p0) = oldest?;
         let v = crate::geo::haversine_f32_m(p0, s.pos, crate::geo::EARTH_RADIUS_PAPER_M) / (s.t - t0) as f32;
         v.is_finite().then_some(v)
+    }
+
+    /// The distance evidence of a frozen position (see the module documentation).
+    fn crawl_evidence(&mut self, s: &Sample, wv: f32) -> bool {
+        let judged = self.wheel == MotionState::Moving && self.gnss == MotionState::Standing && s.pos.is_valid() && s.dt_s > 0.0 && s.dt_s <= 3.0;
+        if !judged {
+            self.crawl = None;
+            return false;
+        }
+        match self.crawl.as_mut() {
+            Some((p0, d)) => {
+                *d += wv.max(0.0) * s.dt_s;
+                let moved = crate::geo::haversine_f32_m(*p0, s.pos, crate::geo::EARTH_RADIUS_PAPER_M);
+                *d >= CRAWL_MIN_M && moved < CRAWL_FRACTION * *d
+            }
+            None => {
+                self.crawl = Some((s.pos, 0.0));
+                false
+            }
+        }
     }
 
     /// One epoch. `None` when an input is missing (degraded); the state is then forgotten, so a
@@ -203,9 +232,10 @@ impl Motion {
         // position-derived speed above 1 m/s for seconds after the car stops), or below its
         // standing threshold while the wheels turn faster than GNSS itself needs to call motion
         // (or a crawl below the GNSS noise floor would look like a frozen position).
+        let crawled = self.crawl_evidence(s, wv);
         let now = match (self.wheel, self.gnss) {
             (MotionState::Standing, MotionState::Moving) if g_lo > gmove => Some(Disagreement::GnssMovingWheelsStanding),
-            (MotionState::Moving, MotionState::Standing) if wv > gmove && g_hi < gstop => Some(Disagreement::GnssStandingWheelsMoving),
+            (MotionState::Moving, MotionState::Standing) if (wv > gmove && g_hi < gstop) || crawled => Some(Disagreement::GnssStandingWheelsMoving),
             _ => None,
         };
         let disagree_s = match (now, self.since) {
