@@ -27,9 +27,13 @@ use crate::wire::templates::TemplateSet;
 /// All tuning of the detector, with documented defaults ([`Config::for_profile`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Config {
+    /// Strategy 1, location shift.
     pub shift: ShiftConfig,
+    /// Strategy 3, motion state.
     pub motion: MotionConfig,
+    /// Strategy 2, turns.
     pub turn: TurnConfig,
+    /// Beyond the paper: the track check.
     pub track: TrackConfig,
 }
 
@@ -109,6 +113,7 @@ pub enum Reason {
 }
 
 impl Reason {
+    /// Every reason, in bit order.
     pub const ALL: [Reason; 20] = [
         Reason::ShiftExceedsPrediction,
         Reason::ShiftBelowPrediction,
@@ -131,6 +136,7 @@ impl Reason {
         Reason::VelocityAcross,
         Reason::CalibrationContradicted,
     ];
+    /// The reason's name in JSON and reports (`shift_exceeds_prediction`, ...).
     pub const fn name(self) -> &'static str {
         match self {
             Reason::ShiftExceedsPrediction => "shift_exceeds_prediction",
@@ -162,12 +168,15 @@ impl Reason {
 pub struct Reasons(pub u32);
 
 impl Reasons {
+    /// Adds `r`.
     pub fn insert(&mut self, r: Reason) {
         self.0 |= 1 << r as u32;
     }
+    /// Whether `r` is in the set.
     pub fn contains(self, r: Reason) -> bool {
         self.0 & (1 << r as u32) != 0
     }
+    /// The reasons in the set, in bit order.
     pub fn iter(self) -> impl Iterator<Item = Reason> {
         Reason::ALL.into_iter().filter(move |r| self.contains(*r))
     }
@@ -176,7 +185,9 @@ impl Reasons {
 /// The first alarm since start or the last [`Detector::clear_alarm`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FirstAlarm {
+    /// The epoch of the first alarm.
     pub epoch: u32,
+    /// Its time, seconds.
     pub t: f64,
 }
 
@@ -185,6 +196,7 @@ pub struct FirstAlarm {
 pub struct Verdict {
     /// Epoch counter since start (every call to [`Detector::step`] is one epoch).
     pub epoch: u32,
+    /// Epoch time, seconds (the sample's).
     pub t: f64,
     /// Strategies that ran at this epoch.
     pub ran: StrategySet,
@@ -192,6 +204,7 @@ pub struct Verdict {
     pub fired: StrategySet,
     /// Strategies that could not run for lack of valid inputs.
     pub degraded: StrategySet,
+    /// Why: what fired, what was degraded and why, what restarted.
     pub reasons: Reasons,
     /// Strategy 1's numbers, when it ran.
     pub shift: Option<ShiftOutcome>,
@@ -206,6 +219,7 @@ pub struct Verdict {
     pub learning: bool,
     /// Latched alarm.
     pub alarm: bool,
+    /// The first alarm since start or the last [`Detector::clear_alarm`].
     pub first_alarm: Option<FirstAlarm>,
 }
 
@@ -264,6 +278,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         self
     }
 
+    /// The configuration the detector runs with.
     pub fn config(&self) -> &Config {
         &self.cfg
     }
@@ -295,6 +310,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         &self.track
     }
 
+    /// Clears the latched alarm (strategies keep running; the next firing latches it again).
     pub fn clear_alarm(&mut self) {
         self.first_alarm = None;
     }
@@ -318,6 +334,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
         }
     }
 
+    /// Judges one epoch: one synchronised sample in, one verdict out.
     pub fn step(&mut self, s: &Sample) -> Verdict {
         self.step_timed(s, &mut NoStopwatch)
     }

@@ -19,11 +19,14 @@ pub const EARTH_RADIUS_PAPER_M: f64 = 6_378_000.0;
 /// A WGS84 position in degrees.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct LatLon {
+    /// Latitude, degrees, + = north.
     pub lat_deg: f64,
+    /// Longitude, degrees, + = east.
     pub lon_deg: f64,
 }
 
 impl LatLon {
+    /// A position from latitude and longitude, degrees.
     pub const fn new(lat_deg: f64, lon_deg: f64) -> Self {
         Self { lat_deg, lon_deg }
     }

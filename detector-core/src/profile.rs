@@ -9,6 +9,7 @@
 /// A receiver class.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReceiverProfile {
+    /// The profile's name (`ublox-10hz`, `logger-1hz`).
     pub name: &'static str,
     /// Nominal epoch duration, seconds.
     pub nominal_dt_s: f32,
@@ -18,9 +19,11 @@ pub struct ReceiverProfile {
     pub kinematic_max_error_m: f32,
     /// Standing / moving thresholds on the reported speed over ground, m/s.
     pub gnss_speed_stop_mps: f32,
+    /// Moving above this reported speed, m/s.
     pub gnss_speed_move_mps: f32,
     /// Standing / moving thresholds on the speed from position change, m/s (noisier).
     pub pos_speed_stop_mps: f32,
+    /// Moving above this speed from position change, m/s.
     pub pos_speed_move_mps: f32,
 }
 

@@ -23,12 +23,14 @@ impl Reading {
             _ => Reading::Missing,
         }
     }
+    /// The value, if valid.
     pub fn get(self) -> Option<f32> {
         match self {
             Reading::Valid(v) => Some(v),
             _ => None,
         }
     }
+    /// Whether the reading holds a value.
     pub fn is_valid(self) -> bool {
         matches!(self, Reading::Valid(_))
     }
@@ -56,13 +58,17 @@ impl Signal {
         matches!(self, Signal::WheelSpeed | Signal::YawRate)
     }
 
+    /// How many signals there are.
     pub const COUNT: usize = 5;
+    /// Every signal, in index order.
     pub const ALL: [Signal; Signal::COUNT] =
         [Signal::WheelSpeed, Signal::Steering, Signal::Pedal, Signal::YawRate, Signal::LongAccel];
 
+    /// Index into [`Sample::signals`].
     pub const fn index(self) -> usize {
         self as usize
     }
+    /// The signal's name in map files and reports (`wheel_speed`, ...).
     pub const fn name(self) -> &'static str {
         match self {
             Signal::WheelSpeed => "wheel_speed",
@@ -79,6 +85,7 @@ impl Signal {
 pub struct Fix {
     /// Time of the fix, seconds, on the same clock as the vehicle observations.
     pub t: f64,
+    /// Position as reported.
     pub pos: LatLon,
     /// Speed over ground, m/s, when the receiver reports it.
     pub speed_mps: Option<f32>,
@@ -100,10 +107,13 @@ pub struct Sample {
     pub t: f64,
     /// Seconds since the previous epoch (0 for the first epoch after a start or reset).
     pub dt_s: f32,
+    /// The fix's position.
     pub pos: LatLon,
     /// Haversine distance from the previous fix, metres (`Missing` on the first epoch).
     pub shift_m: Reading,
+    /// The receiver's speed over ground, m/s.
     pub gnss_speed: Reading,
+    /// The receiver's course over ground, degrees, 0 = north, clockwise.
     pub gnss_course: Reading,
     /// The receiver's horizontal accuracy (1 sigma), metres.
     pub gnss_h_acc: Reading,
@@ -120,21 +130,27 @@ pub struct Sample {
 }
 
 impl Sample {
+    /// The reading of signal `s` at this epoch.
     pub fn signal(&self, s: Signal) -> Reading {
         self.signals[s.index()]
     }
+    /// Wheel speed, m/s.
     pub fn wheel_speed(&self) -> Reading {
         self.signal(Signal::WheelSpeed)
     }
+    /// Steering wheel angle, degrees, + = left.
     pub fn steering(&self) -> Reading {
         self.signal(Signal::Steering)
     }
+    /// Accelerator pedal, percent.
     pub fn pedal(&self) -> Reading {
         self.signal(Signal::Pedal)
     }
+    /// Yaw rate, deg/s, + = left.
     pub fn yaw_rate(&self) -> Reading {
         self.signal(Signal::YawRate)
     }
+    /// Longitudinal acceleration, m/s^2, + = forward.
     pub fn long_accel(&self) -> Reading {
         self.signal(Signal::LongAccel)
     }

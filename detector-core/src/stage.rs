@@ -59,6 +59,7 @@ impl Stage {
         self as usize
     }
 
+    /// The stage's name in the QEMU run's breakdown.
     pub fn name(self) -> &'static str {
         match self {
             Stage::CanDecode => "CAN decode",
@@ -79,6 +80,7 @@ impl Stage {
 
 /// Told at each stage boundary which stage the time since the previous boundary belongs to.
 pub trait Stopwatch {
+    /// The time since the previous lap belongs to `stage`.
     fn lap(&mut self, stage: Stage);
 }
 

@@ -58,10 +58,15 @@ impl Default for SyncConfig {
 /// What the synchroniser dropped or repaired, for diagnostics.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SyncCounters {
+    /// Fixes with a non-finite time or an invalid position, dropped.
     pub fixes_invalid: u32,
+    /// Fixes not later than the previous one, dropped.
     pub fixes_out_of_order: u32,
+    /// Vehicle observations with a non-finite time or value, dropped.
     pub obs_invalid: u32,
+    /// Vehicle observations older than that signal's last, dropped.
     pub obs_out_of_order: u32,
+    /// Times an input jumped back in time by more than `reset_backjump_s`: the synchroniser started over.
     pub resets: u32,
     /// Epochs emitted early because the pending queue was full.
     pub overflow_emits: u32,
@@ -120,6 +125,7 @@ pub struct Synchronizer {
 }
 
 impl Synchronizer {
+    /// A synchroniser with nothing seen yet.
     pub fn new(cfg: SyncConfig) -> Self {
         Self {
             cfg,
@@ -133,10 +139,12 @@ impl Synchronizer {
         }
     }
 
+    /// Its configuration.
     pub fn config(&self) -> &SyncConfig {
         &self.cfg
     }
 
+    /// What it dropped or repaired so far.
     pub fn counters(&self) -> SyncCounters {
         self.counters
     }

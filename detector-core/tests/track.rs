@@ -54,7 +54,7 @@ fn truth(t: f64, first_stop_s: f64) -> (f64, f64) {
     let v = if t < first_stop_s { 15.0 } else if c < 20.0 { 0.0 } else if c < 25.0 { 3.0 * (c - 20.0) } else { 15.0 };
     let k = (t / 60.0) as u64;
     let p = t % 60.0;
-    let yaw = if v > 5.0 && (30.0..40.0).contains(&p) { if k.is_multiple_of(2) { 9.0 } else { -9.0 } } else { 0.0 };
+    let yaw = if v > 5.0 && (30.0..40.0).contains(&p) { if k % 2 == 0 { 9.0 } else { -9.0 } } else { 0.0 };
     (v, yaw)
 }
 

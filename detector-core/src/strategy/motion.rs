@@ -18,9 +18,13 @@ use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Standing or moving, by one source.
 pub enum MotionState {
+    /// No evidence yet (start-up, or the input is missing).
     Unknown,
+    /// Below the source's standing threshold.
     Standing,
+    /// Above the source's moving threshold.
     Moving,
 }
 
@@ -37,6 +41,7 @@ pub struct MotionConfig {
     pub gnss_move_mps: f32,
     /// Same, from the position change when the receiver reports no speed (noisier), m/s.
     pub pos_stop_mps: f32,
+    /// Moving above this speed from position change, m/s.
     pub pos_move_mps: f32,
     /// How long the two must disagree before the strategy fires, seconds.
     pub persist_s: f32,
@@ -69,11 +74,15 @@ pub enum Disagreement {
 /// What strategy 3 concluded at one epoch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotionOutcome {
+    /// What the wheels say.
     pub wheel: MotionState,
+    /// What GNSS says.
     pub gnss: MotionState,
     /// How long the current disagreement has lasted, seconds (0 when they agree).
     pub disagree_s: f32,
+    /// Which way they disagree, if they do.
     pub disagreement: Option<Disagreement>,
+    /// The disagreement lasted `persist_s`, or the wheels crawled on while GNSS stood.
     pub fired: bool,
 }
 
@@ -90,7 +99,6 @@ fn hysteresis(state: MotionState, v: f32, stop: f32, mov: f32) -> MotionState {
     }
 }
 
-/// The streaming motion-state check.
 /// Position-derived GNSS speed is taken over at least this baseline, seconds: one epoch's shift
 /// of a 1 Hz receiver carries its position noise twice per second (0.7 m/s rms on the
 /// sddi_commuter logger), a baseline of several epochs a fraction of it.
@@ -104,6 +112,7 @@ pub const CRAWL_MIN_M: f32 = 25.0;
 pub const CRAWL_FRACTION: f32 = 0.2;
 
 #[derive(Clone, Debug)]
+/// The streaming motion-state check (see the module documentation).
 pub struct Motion {
     cfg: MotionConfig,
     wheel: MotionState,
@@ -126,10 +135,12 @@ const STANDING_MS_PRIOR: f32 = 0.75 * 0.75;
 const STANDING_RMS_FACTOR: f32 = 4.0;
 
 impl Motion {
+    /// A check with nothing seen yet.
     pub fn new(cfg: MotionConfig) -> Self {
         Self { cfg, wheel: MotionState::Unknown, gnss: MotionState::Unknown, since: None, recent: [None; POS_KEPT], standing_ms: STANDING_MS_PRIOR, crawl: None }
     }
 
+    /// Starts over, keeping the receiver's noise at standstill (the receiver's, not the stretch's).
     pub fn reset(&mut self) {
         let standing_ms = self.standing_ms;
         *self = Motion::new(self.cfg);

@@ -17,6 +17,7 @@ use super::le;
 
 /// The record's magic and version.
 pub const MAGIC: &[u8; 4] = b"GGCR";
+/// The record version this build reads and writes.
 pub const VERSION: u16 = 1;
 const HEADER: usize = 8;
 const PAYLOAD: usize = 64;
@@ -41,12 +42,15 @@ pub struct Record {
     /// The gyro's bias, deg/s (NaN: no gyro, or never measured), and the seconds of standstill
     /// behind it.
     pub gyro_bias_degps: f32,
+    /// Seconds of standstill behind the gyro bias.
     pub gyro_bias_weight_s: f32,
     /// The gyro's scale error (true turn = (1 + e) measured turn) and its uncertainty.
     pub gyro_scale_error: f32,
+    /// The gyro scale error's uncertainty (1 sigma).
     pub gyro_scale_sd: f32,
     /// The position windows' learnt noise (10 s, 30 s): `s0` metres and `k`.
     pub noise_s0_m: [f32; 2],
+    /// The position windows' learnt relative noise `k` (10 s, 30 s).
     pub noise_k: [f32; 2],
     /// The velocity channels' quiet noise (along, across), m/s.
     pub velocity_sigma_mps: [f32; 2],
@@ -58,13 +62,36 @@ pub struct Record {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RecordError {
     /// Fewer bytes than a record has.
-    TooShort { len: usize },
+    TooShort {
+        /// How many bytes there were.
+        len: usize,
+    },
+    /// The first four bytes are not `GGCR`.
     BadMagic,
-    BadVersion { version: u16 },
-    BadLength { length: u16 },
-    BadCrc { stored: u32, computed: u32 },
+    /// A version this build does not read.
+    BadVersion {
+        /// The version found.
+        version: u16,
+    },
+    /// The length field does not match this version's record.
+    BadLength {
+        /// The length found.
+        length: u16,
+    },
+    /// The CRC over header and payload does not match.
+    BadCrc {
+        /// The CRC stored in the record.
+        stored: u32,
+        /// The CRC of the bytes as read.
+        computed: u32,
+    },
     /// A field that is not physically possible: its name and offset.
-    Implausible { field: &'static str, at: usize },
+    Implausible {
+        /// The field's name.
+        field: &'static str,
+        /// Its byte offset in the record.
+        at: usize,
+    },
 }
 
 impl RecordError {

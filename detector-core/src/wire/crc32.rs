@@ -1,5 +1,6 @@
 //! CRC-32 (IEEE 802.3, reflected, as zlib and PNG use), bitwise: no table in flash.
 
+/// The CRC-32 of `data`.
 pub fn crc32(data: &[u8]) -> u32 {
     let mut c = 0xFFFF_FFFFu32;
     for &b in data {

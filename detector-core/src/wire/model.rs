@@ -17,12 +17,15 @@
 use super::crc32::crc32;
 use super::le;
 
+/// The blob's magic.
 pub const MAGIC: &[u8; 4] = b"GGLM";
+/// The blob version this build reads.
 pub const VERSION: u16 = 1;
 /// Number of inputs per step.
 pub const N_IN: usize = 4;
 /// Largest layer sizes the fixed buffers hold (the paper's 128 and 64).
 pub const MAX_H1: usize = 128;
+/// Largest second layer the fixed buffers hold.
 pub const MAX_H2: usize = 64;
 const HEADER: usize = 12 + 14 * 4;
 /// Fixed-point format of activations and cell state: Q4.12.
@@ -33,21 +36,28 @@ pub const MULT_SHIFT: u32 = 24;
 /// Weight encoding of a blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WeightKind {
+    /// 32-bit floats (the host's fidelity reference).
     F32 = 0,
+    /// int8 weights with one multiplier per row (the deployed model).
     I8 = 1,
 }
 
 /// Why a model blob was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LstmError {
+    /// Shorter than a header and a CRC.
     TooShort,
+    /// The first four bytes are not `GGLM`.
     BadMagic,
+    /// A version this build does not read.
     BadVersion,
+    /// A weight kind other than f32 or int8.
     BadKind,
     /// Input count not 4, a layer size 0 or above the fixed buffers.
     BadShape,
     /// The length does not match the shapes.
     BadLength,
+    /// The CRC over the blob does not match.
     BadCrc,
     /// A normalisation range or threshold term is not finite or empty.
     BadRange,
@@ -59,7 +69,9 @@ pub enum LstmError {
 /// row at `mult`, then one bias per row at `bias`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Layer {
+    /// Rows of the weight matrix (outputs).
     pub rows: usize,
+    /// Columns of the weight matrix (inputs).
     pub cols: usize,
     w: usize,
     mult: usize,
@@ -70,17 +82,25 @@ pub struct Layer {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LstmModel<'a> {
     bytes: &'a [u8],
+    /// How the weights are stored.
     pub kind: WeightKind,
+    /// Units of the first LSTM layer.
     pub h1: usize,
+    /// Units of the second LSTM layer.
     pub h2: usize,
+    /// Each input's minimum over the training set (min-max normalisation).
     pub in_min: [f32; N_IN],
+    /// Each input's maximum over the training set.
     pub in_max: [f32; N_IN],
+    /// The output's minimum over the training set, m/s.
     pub out_min: f32,
+    /// The output's maximum over the training set, m/s.
     pub out_max: f32,
     /// Maximum absolute validation error, metres: `[10 Hz profile, 1 Hz profile]`.
     pub max_err_m: [f32; 2],
     /// Validation RMSE, metres: `[10 Hz profile, 1 Hz profile]`.
     pub rmse_m: [f32; 2],
+    /// The two LSTM layers and the dense output layer.
     pub layers: [Layer; 3],
 }
 
@@ -100,6 +120,7 @@ fn i32_at(b: &[u8], o: usize) -> i32 {
 }
 
 impl<'a> LstmModel<'a> {
+    /// Validates a blob (magic, version, kind, shapes, length, CRC, ranges) and reads it in place.
     pub fn parse(bytes: &'a [u8]) -> Result<Self, LstmError> {
         if bytes.len() < HEADER + 4 {
             return Err(LstmError::TooShort);
@@ -198,6 +219,7 @@ impl<'a> LstmModel<'a> {
             }
         }
     }
+    /// Row `r`'s bias of layer `l`, as a real number.
     pub fn bias_f32(&self, l: &Layer, r: usize) -> f32 {
         match self.kind {
             WeightKind::F32 => f32_at(self.bytes, l.bias + 4 * r),
@@ -209,15 +231,25 @@ impl<'a> LstmModel<'a> {
 /// Writes a blob (host tools and tests; the core only reads). `layers` are `(weights row-major,
 /// bias)` for layer 1, layer 2 and the dense layer in f32; int8 blobs are quantised per row here.
 pub struct BlobSpec<'s> {
+    /// How to store the weights.
     pub kind: WeightKind,
+    /// Units of the first LSTM layer.
     pub h1: usize,
+    /// Units of the second LSTM layer.
     pub h2: usize,
+    /// Each input's training minimum.
     pub in_min: [f32; N_IN],
+    /// Each input's training maximum.
     pub in_max: [f32; N_IN],
+    /// The output's training minimum, m/s.
     pub out_min: f32,
+    /// The output's training maximum, m/s.
     pub out_max: f32,
+    /// Maximum absolute validation error, metres: `[10 Hz, 1 Hz]`.
     pub max_err_m: [f32; 2],
+    /// Validation RMSE, metres: `[10 Hz, 1 Hz]`.
     pub rmse_m: [f32; 2],
+    /// `(weights row-major, bias)` of layer 1, layer 2 and the dense layer.
     pub layers: [(&'s [f32], &'s [f32]); 3],
 }
 

@@ -13,13 +13,18 @@ use super::le;
 pub const QUERY_LEN: usize = 32;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+/// What a steering segment is: a left turn, a right turn or neither.
 pub enum TurnClass {
+    /// No turn.
     None = 0,
+    /// A left turn.
     Left = 1,
+    /// A right turn.
     Right = 2,
 }
 
 impl TurnClass {
+    /// The class of its byte in a blob.
     pub fn from_u8(x: u8) -> Option<Self> {
         match x {
             0 => Some(TurnClass::None),
@@ -28,6 +33,7 @@ impl TurnClass {
             _ => None,
         }
     }
+    /// `none`, `left` or `right`.
     pub const fn name(self) -> &'static str {
         match self {
             TurnClass::None => "none",
@@ -40,12 +46,16 @@ impl TurnClass {
 /// Where a template's steering came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Provenance {
+    /// A steering wheel angle sensor.
     Measured = 0,
+    /// The yaw-rate proxy through the bicycle model.
     Derived = 1,
+    /// The simulator.
     Simulated = 2,
 }
 
 impl Provenance {
+    /// The provenance of its byte in a blob.
     pub fn from_u8(x: u8) -> Option<Self> {
         match x {
             0 => Some(Provenance::Measured),
@@ -54,6 +64,7 @@ impl Provenance {
             _ => None,
         }
     }
+    /// `measured`, `derived` or `simulated`.
     pub const fn name(self) -> &'static str {
         match self {
             Provenance::Measured => "measured",
@@ -66,16 +77,23 @@ impl Provenance {
 /// Why a template blob was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BlobError {
+    /// Shorter than a header and a CRC.
     TooShort,
+    /// The first four bytes are not `GGTT`.
     BadMagic,
+    /// A version this build does not read.
     BadVersion,
+    /// Not 32 points per template, a band beyond them, or a length that does not match.
     BadShape,
+    /// The CRC does not match.
     BadCrc,
+    /// A template's class or provenance byte is unknown.
     BadRecord,
 }
 
 /// The blob's magic and version.
 pub const MAGIC: &[u8; 4] = b"GGTT";
+/// The blob version this build reads.
 pub const VERSION: u16 = 1;
 const HEADER: usize = 14;
 
@@ -88,6 +106,7 @@ pub struct TemplateSet<'a> {
 }
 
 impl<'a> TemplateSet<'a> {
+    /// Validates a blob (magic, version, shape, CRC, every record) and reads it in place.
     pub fn parse(bytes: &'a [u8]) -> Result<Self, BlobError> {
         if bytes.len() < HEADER + 4 {
             return Err(BlobError::TooShort);
@@ -122,12 +141,15 @@ impl<'a> TemplateSet<'a> {
         Ok(set)
     }
 
+    /// Templates in the set.
     pub fn len(&self) -> usize {
         self.count
     }
+    /// No template.
     pub fn is_empty(&self) -> bool {
         self.count == 0
     }
+    /// The Sakoe-Chiba band the templates were trained with.
     pub fn band(&self) -> usize {
         self.band
     }

@@ -6,16 +6,18 @@ use crate::sample::Sample;
 
 /// A primary predictor with the kinematic predictor behind it: where the primary lacks its
 /// inputs (an LSTM on a car without a pedal signal), the kinematic prediction is judged against
-/// the kinematic error term ([`ShiftConfig::fallback_error_m`]) instead of leaving strategy 1
+/// the kinematic error term ([`ShiftConfig::fallback_error_m`](super::judge::ShiftConfig::fallback_error_m)) instead of leaving strategy 1
 /// degraded.
 #[derive(Clone, Debug)]
 pub struct WithFallback<P> {
+    /// The predictor used wherever it has its inputs.
     pub primary: P,
     fallback: KinematicPredictor,
     used_fallback: bool,
 }
 
 impl<P: ShiftPredictor> WithFallback<P> {
+    /// `primary`, with the kinematic predictor where it lacks an input.
     pub fn new(primary: P) -> Self {
         WithFallback { primary, fallback: KinematicPredictor::default(), used_fallback: false }
     }

@@ -42,11 +42,15 @@ pub struct ShiftConfig {
 /// What strategy 1 concluded at one epoch.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ShiftOutcome {
+    /// The GNSS shift since the previous epoch, metres.
     pub gnss_shift_m: f32,
+    /// The predictor's shift for the same epoch, metres.
     pub predicted_m: f32,
     /// Signed: GNSS shift minus prediction (+ = GNSS moved further than the car).
     pub residual_m: f32,
+    /// The threshold at this epoch's duration, metres.
     pub threshold_m: f32,
+    /// `|residual_m| > threshold_m`.
     pub fired: bool,
     /// The fallback (kinematic) predictor made this prediction.
     pub fallback: bool,
@@ -66,6 +70,7 @@ impl ShiftConfig {
         }
     }
 
+    /// The threshold for an epoch of `dt_s` seconds: the error term scaled by `dt / nominal dt` (never below 1) plus the GNSS error term, metres.
     pub fn threshold_m(&self, dt_s: f32) -> f32 {
         let scale = if self.nominal_dt_s > 0.0 { (dt_s / self.nominal_dt_s).max(1.0) } else { 1.0 };
         self.predictor_error_m * scale + self.gnss_error_m

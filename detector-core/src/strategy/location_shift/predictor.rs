@@ -15,6 +15,7 @@ use crate::wire::model::LstmModel;
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Predictor<'m> {
+    /// Wheel-speed dead reckoning over the epoch.
     Kinematic(KinematicPredictor),
     /// The LSTM's integer kernel, with the kinematic predictor where the LSTM lacks inputs.
     Lstm(WithFallback<LstmPredictor<'m, IntKernel>>),

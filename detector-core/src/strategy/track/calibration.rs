@@ -26,7 +26,9 @@
 /// Delay candidates: -3, -2.875, ..., +3 s (a velocity held from a second, 1 Hz receiver that
 /// lags by 1.8 s is up to 2.8 s late).
 pub const DELAYS: usize = 49;
+/// The step between delay candidates, seconds.
 pub const DELAY_STEP_S: f32 = 0.125;
+/// The first candidate's delay, seconds (negative: the vehicle signals late).
 pub const DELAY_MIN_S: f32 = -3.0;
 /// The candidate of zero delay.
 const ZERO: usize = 24;
@@ -192,6 +194,7 @@ pub struct Calibration {
 }
 
 impl Calibration {
+    /// A first drive's calibration: nothing learnt, learning within `lim`'s rates.
     pub fn new(lim: CalLimits) -> Self {
         Calibration { lim, sets: [DelaySet::new(); 2], scale: 1.0, learnt_s: 0.0, calibrated: false, stored: None, contradiction: None }
     }
@@ -214,6 +217,7 @@ impl Calibration {
         c
     }
 
+    /// The bounds and rates it learns within.
     pub fn limits(&self) -> &CalLimits {
         &self.lim
     }
@@ -257,12 +261,15 @@ impl Calibration {
     pub fn calibrated(&self) -> bool {
         self.calibrated
     }
+    /// The stored record this drive started from, if any.
     pub fn stored(&self) -> Option<&Record> {
         self.stored.as_ref()
     }
+    /// Seconds of driving learnt from (a stored record's included).
     pub fn learnt_s(&self) -> f32 {
         self.learnt_s
     }
+    /// The stored record this drive contradicts, once found.
     pub fn contradiction(&self) -> Option<Contradiction> {
         self.contradiction
     }

@@ -11,17 +11,20 @@ pub const WINDOWS_S: [f32; 2] = [10.0, 30.0];
 /// Tuning of the track check. See the module documentation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrackConfig {
+    /// The check runs at all.
     pub enabled: bool,
     /// False alarms per hour of driving the position windows' threshold is derived from.
     pub budget_per_hour: f32,
     /// Prior noise of a window's GNSS ends, metres (the receiver class's stated accuracy), and
     /// prior relative DR error.
     pub s0_prior_m: f32,
+    /// Prior relative DR error (of the distance driven).
     pub k_prior: f32,
     /// How many seconds of data the priors weigh as.
     pub prior_weight_s: f32,
     /// Floors of the learnt noise: metres, and relative.
     pub s0_floor_m: f32,
+    /// Floor of the learnt relative DR error.
     pub k_floor: f32,
     /// Time constant of the noise learning after the warm-up, seconds.
     pub learn_tau_s: f32,
@@ -47,6 +50,7 @@ pub struct TrackConfig {
     pub bias_sd_degps: f32,
     /// Uncertainty of the gyro's scale at power-up (relative), and its random walk, 1/s.
     pub gyro_scale_sd: f32,
+    /// Random walk of the gyro's scale, 1/s.
     pub q_gyro_scale: f32,
     /// The frame counts as aligned (windows are judged) below this rotation uncertainty, deg.
     pub aligned_sd_deg: f32,

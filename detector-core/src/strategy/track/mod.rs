@@ -230,6 +230,7 @@ fn cis(x: f32) -> (f32, f32) {
 }
 
 impl TrackCheck {
+    /// A check on a car it knows nothing about: it learns it (see the module documentation).
     pub fn new(cfg: TrackConfig) -> Self {
         let vel = VelocityTest::new(cfg.velocity);
         TrackCheck {

@@ -19,6 +19,7 @@ pub enum HeadingSource {
 }
 
 impl HeadingSource {
+    /// The source's name in JSON (`gyro`, `gnss`).
     pub const fn name(self) -> &'static str {
         match self {
             HeadingSource::Gyro => "gyro",
@@ -32,9 +33,11 @@ impl HeadingSource {
 pub struct WindowOutcome {
     /// |e|, metres, and the threshold on it (c sigma(L)), metres.
     pub e_m: f32,
+    /// The threshold on `e_m` (c sigma(L)), metres.
     pub threshold_m: f32,
     /// Distance driven over the window (DR), metres.
     pub dist_m: f32,
+    /// `e_m` in units of the window's noise: `|e| / sigma(L)`.
     pub z: f32,
 }
 
@@ -56,16 +59,21 @@ pub struct TrackOutcome {
     /// signals; negative: the vehicle late), s, the velocity's NaN without one, wheel-speed
     /// scale, rotation of the DR frame (deg) and gyro bias (deg/s).
     pub delay_s: f32,
+    /// The learnt delay of the GNSS velocity, seconds (NaN without one).
     pub delay_velocity_s: f32,
     /// The position's delay the fits alone say (before the calibration's rates and bounds), s.
     pub delay_free_s: f32,
+    /// The learnt wheel-speed scale (GNSS distance over wheel distance).
     pub scale: f32,
+    /// The rotation of the DR frame against GNSS's, degrees.
     pub rotation_deg: f32,
     /// The rotation's uncertainty (1 sigma), deg.
     pub rotation_sd_deg: f32,
+    /// The learnt gyro bias, deg/s.
     pub gyro_bias_degps: f32,
     /// The heading source, and its learnt scale (true turn over measured turn).
     pub heading: HeadingSource,
+    /// The heading source's learnt scale (true turn over measured turn).
     pub turn_scale: f32,
     /// Calibrated: from a stored record, or after the first drive's warm-up.
     pub calibrated: bool,
@@ -82,6 +90,7 @@ pub struct TrackOutcome {
     pub bound_10s_mps: Option<f32>,
     /// The learnt noise per window: `s0` (metres) and `k`.
     pub noise_s0_m: [f32; 2],
+    /// The learnt relative noise `k` per window.
     pub noise_k: [f32; 2],
 }
 

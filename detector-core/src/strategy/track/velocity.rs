@@ -50,6 +50,7 @@
 
 /// The windows of the bank, seconds.
 pub const WINDOWS_S: [f32; WINDOWS] = [10.0, 30.0, 60.0];
+/// How many windows the bank has.
 pub const WINDOWS: usize = 3;
 /// One-second bins kept (the longest window, with room).
 const BINS: usize = 64;
@@ -59,14 +60,16 @@ pub const DIFFS: usize = 8;
 /// Tuning of the velocity test. See the module documentation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VelocityConfig {
+    /// The test runs at all.
     pub enabled: bool,
     /// False alarms per hour of driving the threshold is derived from.
     pub budget_per_hour: f32,
     /// Correlation time of the residual, seconds: of a receiver's own velocity (Doppler,
     /// filtered: positively correlated, with excursions of seconds), and of position
     /// differences (differenced position noise is negatively correlated; their windows carry
-    /// the ends' position error instead, see [`Channel::statistic`]).
+    /// the ends' position error instead, see the module documentation, "The statistic").
     pub kappa_s: f32,
+    /// The same for position differences, seconds.
     pub kappa_position_s: f32,
     /// Per-pair clip of `z`.
     pub clip: f32,
@@ -74,6 +77,7 @@ pub struct VelocityConfig {
     /// direction) fire at once: a receiver's own glitches last up to three fixes at about 2 m/s
     /// (css_canedge), a drift of metres per second stays.
     pub gross: f32,
+    /// The gross path's floor in m/s.
     pub gross_mps: f32,
     /// A window fires once its statistic has stayed above the threshold this long, seconds
     /// (a single epoch's excursion does not).
@@ -82,11 +86,14 @@ pub struct VelocityConfig {
     pub freeze: f32,
     /// Along-track pairs are judged above this speed, across-track ones above the second, m/s.
     pub min_speed_mps: f32,
+    /// Across-track pairs are judged above this speed, m/s.
     pub min_speed_across_mps: f32,
     /// Noise floors (along, across), m/s, the noise assumed before any is measured, and how
     /// slowly the noise falls, seconds.
     pub floor_mps: [f32; 2],
+    /// The noise assumed before any is measured, m/s.
     pub prior_mps: f32,
+    /// How slowly the noise falls (time constant), seconds.
     pub fall_s: f32,
     /// A window is judged when it holds at least this share of its length.
     pub min_cover: f32,
@@ -242,6 +249,7 @@ impl Channel {
 
 /// The channels.
 pub const ALONG: usize = 0;
+/// The across-track channel.
 pub const ACROSS: usize = 1;
 
 /// One judged pair's numbers, for the verdict.
@@ -253,7 +261,9 @@ pub struct VelocityOutcome {
     pub sigma_mps: [f32; 2],
     /// The largest window statistic per channel, every window's, and the threshold.
     pub t: [f32; 2],
+    /// Every window's statistic per channel (0 where not judged).
     pub t_windows: [[f32; WINDOWS]; 2],
+    /// The threshold `h` the statistics are compared with.
     pub h: f32,
     /// Which channel fired.
     pub fired: [bool; 2],
@@ -275,12 +285,15 @@ pub struct VelocityTest {
 }
 
 impl VelocityTest {
+    /// A test with no pairs yet, its noise at the prior.
     pub fn new(cfg: VelocityConfig) -> Self {
         VelocityTest { cfg, h: cfg.threshold(), ch: [Channel::new(cfg.floor_mps[0].max(cfg.prior_mps)), Channel::new(cfg.floor_mps[1].max(cfg.prior_mps))], last_t: None }
     }
+    /// Its configuration.
     pub fn config(&self) -> &VelocityConfig {
         &self.cfg
     }
+    /// The threshold from the budget (see [`VelocityConfig::threshold`]).
     pub fn h(&self) -> f32 {
         self.h
     }
@@ -307,6 +320,7 @@ impl VelocityTest {
             }
         }
     }
+    /// The channels' noise now (along, across), m/s.
     pub fn sigma(&self) -> [f32; 2] {
         [self.ch[ALONG].sigma, self.ch[ACROSS].sigma]
     }
@@ -315,7 +329,7 @@ impl VelocityTest {
     /// and the prediction's own variance ((m/s)^2), `None` where that channel is not judged.
     ///
     /// `end_var` (m^2): the position error of a window's two ends when the pairs are position
-    /// differences (see [`Channel::statistic`]), 0 when the receiver reports its velocity.
+    /// differences (see the module documentation, "The statistic"), 0 when the receiver reports its velocity.
     pub fn observe(&mut self, t: f32, pairs: [Option<(f32, f32)>; 2], end_var: f32) -> VelocityOutcome {
         let cfg = self.cfg;
         let w = self.last_t.map_or(1.0, |l| (t - l).clamp(0.05, 1.0));

@@ -11,9 +11,11 @@ pub const MAX_K: usize = 7;
 /// Result of a k-NN query.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Neighbour {
+    /// The winning class.
     pub class: TurnClass,
     /// Distance to the nearest template of the winning class.
     pub distance: f32,
+    /// That template's index in the set.
     pub index: usize,
 }
 

@@ -37,6 +37,7 @@ pub const TICK_S: f64 = 0.2;
 /// One 5 Hz tick, interpolated from the epochs around it.
 #[derive(Clone, Copy, Debug)]
 pub struct Tick {
+    /// The tick's time, seconds.
     pub t: f64,
     /// Steering wheel angle (measured or the yaw-rate proxy), degrees + left; NaN when unknown.
     pub steer: f32,
@@ -54,13 +55,27 @@ pub struct Tick {
 /// Where the segmenter is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
-    /// No segment; `quiet` is the ring index of the last tick with the wheel straight.
-    Idle { quiet: Option<usize> },
-    /// A segment from ring index `start`.
-    Segment { start: usize },
-    /// A segment `start..=end` ended; `left` more ticks of GNSS course are awaited. `quiet` as
-    /// in `Idle`, for a segment that starts right after.
-    Trailing { start: usize, end: usize, left: usize, quiet: Option<usize> },
+    /// No segment.
+    Idle {
+        /// The ring index of the last tick with the wheel straight.
+        quiet: Option<usize>,
+    },
+    /// A segment is open.
+    Segment {
+        /// Its first tick's ring index.
+        start: usize,
+    },
+    /// A segment ended; more ticks of GNSS course are awaited.
+    Trailing {
+        /// Its first tick's ring index.
+        start: usize,
+        /// Its last tick's ring index.
+        end: usize,
+        /// Ticks of GNSS course still awaited.
+        left: usize,
+        /// As in `Idle`, for a segment that starts right after.
+        quiet: Option<usize>,
+    },
 }
 
 /// What one tick did.
@@ -72,17 +87,27 @@ pub enum SegEvent {
     NoSegment,
     /// In a segment (started or continuing), or one ended too short to judge.
     InSegment,
-    /// A segment of ring indices `start..=end` ended, long enough to judge; the GNSS course
-    /// is judged up to `gnss_end` (the trail after it).
-    Ended { start: usize, end: usize, gnss_end: usize },
+    /// A segment ended, long enough to judge.
+    Ended {
+        /// Its first tick's ring index.
+        start: usize,
+        /// Its last tick's ring index.
+        end: usize,
+        /// The GNSS course is judged up to this ring index (the trail after the segment).
+        gnss_end: usize,
+    },
 }
 
 /// The thresholds the segmenter needs (from `TurnConfig`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SegmentRule {
+    /// A segment starts when |steering| rises above this, degrees.
     pub start_deg: f32,
+    /// ... and ends when it settles below this, degrees.
     pub settle_deg: f32,
+    /// Segments shorter than this many ticks are not judged.
     pub min_ticks: usize,
+    /// Nothing is judged this long after a (re)start, seconds.
     pub warmup_s: f32,
     /// Ticks of GNSS course awaited after a segment ends.
     pub trail_ticks: usize,
@@ -116,6 +141,7 @@ impl Segmenter {
         self.phase = Phase::Idle { quiet: None };
     }
 
+    /// Where the state machine is.
     pub fn phase(&self) -> Phase {
         self.phase
     }
@@ -125,14 +151,17 @@ impl Segmenter {
         self.ring.iter()
     }
 
+    /// The tick at ring index `i` (0 the oldest).
     pub fn tick(&self, i: usize) -> Option<&Tick> {
         self.ring.iter().nth(i)
     }
 
+    /// Ticks held.
     pub fn len(&self) -> usize {
         self.ring.len()
     }
 
+    /// No tick held.
     pub fn is_empty(&self) -> bool {
         self.ring.is_empty()
     }

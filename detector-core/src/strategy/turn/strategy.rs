@@ -60,6 +60,7 @@ pub struct TurnConfig {
     pub heading_window_s: f32,
     /// Bicycle model for the steering proxy: wheelbase, metres, and steering ratio.
     pub wheelbase_m: f32,
+    /// Steering ratio of the bicycle model (steering wheel over road wheel angle).
     pub steer_ratio: f32,
     /// Below this speed the proxy and GNSS headings mean nothing, m/s.
     pub min_speed_mps: f32,
@@ -141,18 +142,22 @@ pub enum TurnMismatch {
 pub struct TurnOutcome {
     /// Steering's class (None for the GNSS-only check).
     pub steering: TurnClass,
+    /// DTW distance to the nearest template of that class (0 for the GNSS-only check).
     pub distance: f32,
     /// GNSS course change over the segment, degrees (+ = right).
     pub gnss_change_deg: f32,
     /// Course change the steering implies through the bicycle model, degrees (+ = right); NaN
     /// when the speed was unknown.
     pub steering_change_deg: f32,
+    /// How steering and GNSS disagree, if they do (the strategy fired).
     pub mismatch: Option<TurnMismatch>,
     /// Steering came from the yaw-rate proxy.
     pub derived: bool,
     /// The segment's 5 Hz steering, resampled (for training and tests).
     pub query: [f32; QUERY_LEN],
+    /// The segment's first tick, seconds.
     pub start_t: f64,
+    /// The segment's last tick, seconds.
     pub end_t: f64,
 }
 
@@ -198,6 +203,7 @@ struct SameSteer {
 }
 
 impl<'a> TurnStrategy<'a> {
+    /// A check with nothing seen yet, classifying with `templates`.
     pub fn new(cfg: TurnConfig, templates: Option<TemplateSet<'a>>) -> Self {
         Self {
             cfg,
@@ -213,6 +219,7 @@ impl<'a> TurnStrategy<'a> {
         }
     }
 
+    /// Starts over (a time discontinuity).
     pub fn reset(&mut self) {
         *self = TurnStrategy::new(self.cfg, self.templates);
     }

@@ -54,6 +54,7 @@ impl LstmInputs {
         Some([prev?, pedal, steer, speed])
     }
 
+    /// Forgets the previous shift: a new run starts.
     pub fn reset(&mut self) {
         self.prev_shift_mps = None;
     }

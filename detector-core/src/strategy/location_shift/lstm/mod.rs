@@ -31,7 +31,7 @@
 //! The model blob's format and its validation are [`crate::wire::model`]'s.
 //!
 //! # Files
-//! [`inputs`] (the four inputs), [`kernel`] (the kernel interface), [`reference`] and
+//! [`inputs`] (the four inputs), [`kernel`] (the kernel interface), [`reference`](mod@reference) and
 //! [`integer`] (the two kernels), [`predictor`] (strategy 1's predictor on a kernel).
 
 pub mod inputs;

@@ -15,6 +15,7 @@ pub const DEFAULT_MODEL: &[u8] = include_bytes!("../../../../models/lstm.bin");
 /// The LSTM as strategy 1's [`ShiftPredictor`].
 #[derive(Clone, Debug)]
 pub struct LstmPredictor<'a, K: LstmKernel> {
+    /// The model, read in place from its blob.
     pub model: LstmModel<'a>,
     kernel: K,
     inputs: LstmInputs,

@@ -20,6 +20,7 @@ impl Default for RefKernel {
     }
 }
 
+/// The logistic function, `1 / (1 + e^-x)`.
 pub fn sigmoid(x: f32) -> f32 {
     1.0 / (1.0 + libm::expf(-x))
 }
