@@ -1,8 +1,9 @@
 //! # gnss-guard-profile
 //!
 //! A vehicle profile says where the detector's signals (wheel speed, steering, pedal, yaw rate,
-//! acceleration) are on a car's CAN bus: a DBC file, which describes the frames, and a small map
-//! file, which picks the DBC signals and converts them to our units. The same two files serve
+//! acceleration), and where a receiver reports on CAN its fix, are on a car's buses: DBC files,
+//! which describe the frames, and a small map file, which picks the DBC signals and converts
+//! them to our units. The same two files serve
 //! the firmware (compiled in by the board crate's build script) and host-sim (read at run time),
 //! through this one implementation.
 //!
@@ -22,4 +23,4 @@ pub mod mapping;
 pub mod load;
 
 pub use field::Field;
-pub use mapping::{decode, Mapped};
+pub use mapping::{decode, decode_gnss, GnssField, GnssMapped, Mapped};
