@@ -44,3 +44,15 @@ impl Drive {
         }
     }
 }
+
+/// Every drive under `dir` (files, or folders searched recursively), loaded and synchronised
+/// in parallel; an error names the first file that does not load.
+pub fn load_drives(dir: &std::path::Path) -> Result<Vec<Drive>, gnss_data::input::InputError> {
+    use rayon::prelude::*;
+    let files = gnss_data::input::discover(dir).map_err(|e| gnss_data::input::InputError::file(dir, e.to_string()))?;
+    if files.is_empty() {
+        return Err(gnss_data::input::InputError::file(dir, "no drive found: expected .csv or .parquet drives, .jsonl traces, comma2k19 segments, HDD sessions or logs folders"));
+    }
+    let opts = gnss_data::input::LoadOptions::default();
+    files.par_iter().map(|f| Ok(Drive::new(gnss_data::input::load(f, &opts)?, SyncConfig::default()))).collect()
+}

@@ -190,6 +190,58 @@ pub fn digest_hex(verdicts: &[Verdict]) -> String {
     format!("{:016x}", d.0)
 }
 
+/// How a drive is judged (`detect`'s options; the Python package's too).
+#[derive(Clone, Copy, Debug)]
+pub struct DetectOptions<'a> {
+    /// The receiver profile, or `None` to take it from the drive's fix rate.
+    pub profile: Option<&'static ReceiverProfile>,
+    pub predictor: PredictorKind,
+    pub sync: detector_core::sync::SyncConfig,
+    /// The car's stored calibration, if any.
+    pub stored: Option<&'a Record>,
+}
+
+impl Default for DetectOptions<'_> {
+    fn default() -> Self {
+        DetectOptions { profile: None, predictor: PredictorKind::Lstm, sync: detector_core::sync::SyncConfig::default(), stored: None }
+    }
+}
+
+/// A drive judged: every verdict, what the drive left the car's calibration at, the summary and
+/// the digest.
+pub struct Detection {
+    pub verdicts: Vec<Verdict>,
+    pub profile: &'static ReceiverProfile,
+    pub learnt: Option<Record>,
+    pub summary: Summary,
+    pub digest: String,
+    /// Wall-clock seconds synchronising the drive into samples (host code, not the core's).
+    pub sync_s: f64,
+    /// Wall-clock seconds in the detector core (every epoch, the calibration record included).
+    pub core_s: f64,
+}
+
+/// Synchronises a drive and runs the full detector over it: what `detect` prints, and what the
+/// Python package returns (one path, so both give the same verdicts bit for bit).
+pub fn detect_replay(r: &gnss_data::input::Replay, o: &DetectOptions) -> Detection {
+    let t0 = std::time::Instant::now();
+    let (samples, _) = gnss_data::replay::synchronize(r, o.sync);
+    let sync_s = t0.elapsed().as_secs_f64();
+    let p = o.profile.unwrap_or_else(|| profile_of(&samples));
+    let t1 = std::time::Instant::now();
+    let (verdicts, learnt) = run_calibrated(&samples, config(p, o.predictor), o.predictor, default_templates(), o.stored);
+    let core_s = t1.elapsed().as_secs_f64();
+    let summary = summarize(&verdicts, p);
+    let digest = digest_hex(&verdicts);
+    Detection { verdicts, profile: p, learnt, summary, digest, sync_s, core_s }
+}
+
+/// Seconds judged: the time covered by the epochs at which any strategy ran (each epoch counts
+/// its own duration, `dt`, up to 3 s: a gap is not judged time).
+pub fn judged_s(verdicts: &[Verdict]) -> f64 {
+    verdicts.windows(2).filter(|w| !w[1].ran.is_empty()).map(|w| (w[1].t - w[0].t).clamp(0.0, 3.0)).sum()
+}
+
 /// Per-drive summary of a detection run.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Summary {

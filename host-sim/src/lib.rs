@@ -6,7 +6,9 @@
 //!   [`replay`] synchronises them, [`tracks`], [`attack`], [`sim`], [`qemu_input`];
 //! - [`output`]: files written whole or not at all;
 //! - [`detect`]: the core's detector over a drive, verdicts as JSON, the device's status;
-//! - [`dataset`]: drives prepared for evaluation and training;
+//!   [`verdict_table`]: the verdicts as an Arrow table (Parquet);
+//! - [`dataset`]: drives prepared for evaluation and training, a data folder loaded;
+//!   [`transform`]: attacked and transformed drives;
 //! - [`inspect`], [`calibrate`]: what a drive holds, what the thresholds are made of;
 //! - [`turns`], [`lstm`]: strategy 2's templates and strategy 1's LSTM (data; training with
 //!   the `train` feature);
@@ -18,7 +20,9 @@ pub use gnss_data::{attack, input, qemu_input, replay, sim, tracks};
 
 pub mod output;
 pub mod detect;
+pub mod verdict_table;
 pub mod dataset;
+pub mod transform;
 pub mod inspect;
 pub mod calibrate;
 pub mod turns;

@@ -65,6 +65,9 @@ pub enum GnssSource {
     Stdin,
     File(PathBuf),
     Serial { path: String, baud: u32 },
+    /// The receiver reports on CAN: the fixes come from the CAN frames, under the map's GNSS
+    /// fields (`gnss_data::input::can_gnss`).
+    Can,
 }
 
 impl GnssSource {
@@ -91,6 +94,8 @@ pub struct Options {
     pub profile_epochs: usize,
     /// Time raw GNSS fixes at the receiver's UTC time instead of their arrival.
     pub receiver_time: bool,
+    /// The fixes come from the CAN frames (the map's GNSS fields), not a GNSS input.
+    pub gnss_from_can: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -399,8 +404,48 @@ pub fn run(can: CanSource, gnss: GnssSource, profile: &Profile, opts: &Options, 
             let port = serialport::new(&path, baud).timeout(Duration::from_secs(1)).open().map_err(|e| anyhow::anyhow!("{path}: cannot open the serial port at {baud} baud: {e}"))?;
             std::thread::spawn(move || gnss_reader(path, port, rt, gtx))
         }
+        GnssSource::Can => {
+            anyhow::ensure!(!profile.gnss.is_empty(), "GNSS from CAN needs GNSS fields (gnss_lat, gnss_lon, ...) in the map");
+            // No stream of its own: it ends at once, and the fixes come with the CAN frames.
+            std::thread::spawn(move || {
+                let _ = gtx.send(Msg::End(Stream::Gnss, None));
+            })
+        }
     };
     merge_and_judge(rx, profile, opts, out)
+}
+
+/// GNSS from CAN: the fixes the frames carry, assembled as they come; the frames are held as
+/// long as an epoch takes to complete, so frames and fixes reach the synchroniser in time order.
+struct FromCan {
+    asm: gnss_data::input::can_gnss::Assembler,
+    held: std::collections::VecDeque<CanFrame>,
+}
+
+impl FromCan {
+    /// One frame in: what is ready, in time order (fixes before frames of the same time).
+    fn push(&mut self, f: CanFrame) -> Vec<Msg> {
+        let fixes = self.asm.push(&f);
+        let until = f.t - 2.0 * gnss_data::input::can_gnss::EPOCH_WINDOW_S;
+        self.held.push_back(f);
+        let mut frames = Vec::new();
+        while self.held.front().is_some_and(|h| h.t < until) {
+            frames.extend(self.held.pop_front());
+        }
+        merged(fixes, frames)
+    }
+
+    /// The end of the stream: everything still held.
+    fn finish(self) -> Vec<Msg> {
+        let frames = self.held.into_iter().collect();
+        merged(self.asm.finish(), frames)
+    }
+}
+
+fn merged(fixes: Vec<Fix>, frames: Vec<CanFrame>) -> Vec<Msg> {
+    let mut out: Vec<(f64, u8, Msg)> = fixes.into_iter().map(|x| (x.t, 0, Msg::Fix(x))).chain(frames.into_iter().map(|f| (f.t, 1, Msg::Can(f)))).collect();
+    out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    out.into_iter().map(|(_, _, m)| m).collect()
 }
 
 fn merge_and_judge(rx: Receiver<Msg>, profile: &Profile, opts: &Options, out: &mut impl Write) -> anyhow::Result<()> {
@@ -417,6 +462,7 @@ fn merge_and_judge(rx: Receiver<Msg>, profile: &Profile, opts: &Options, out: &m
         out,
     };
     let mut c = Counts::default();
+    let mut from_can = opts.gnss_from_can.then(|| FromCan { asm: gnss_data::input::can_gnss::Assembler::new(profile.gnss.clone()), held: Default::default() });
     let mut errors: Vec<String> = Vec::new();
     let mut stopped = false;
     let tick = opts.max_wait.max(Duration::from_millis(10));
@@ -448,13 +494,18 @@ fn merge_and_judge(rx: Receiver<Msg>, profile: &Profile, opts: &Options, out: &m
             Err(RecvTimeoutError::Disconnected) => break,
         }
         while let Some(msg) = m.pop(opts.strict_merge, opts.max_wait) {
-            release(msg, profile, &mut j, &mut c)?;
+            route(msg, profile, &mut from_can, &mut j, &mut c)?;
         }
     }
     // End of input (or Ctrl-C): everything still queued, in order.
     m.ended = [true, true];
     while let Some(msg) = m.pop(true, Duration::ZERO) {
-        release(msg, profile, &mut j, &mut c)?;
+        route(msg, profile, &mut from_can, &mut j, &mut c)?;
+    }
+    if let Some(fc) = from_can {
+        for msg in fc.finish() {
+            release(msg, profile, &mut j, &mut c)?;
+        }
     }
     j.finish()?;
     let p = j.profile.unwrap_or(&detector_core::profile::LOGGER_1HZ);
@@ -470,6 +521,20 @@ fn merge_and_judge(rx: Receiver<Msg>, profile: &Profile, opts: &Options, out: &m
         anyhow::bail!("{e}");
     }
     Ok(())
+}
+
+/// A merged message to the synchroniser; CAN frames through the GNSS assembler first when the
+/// fixes come from CAN.
+fn route<W: Write>(msg: Msg, profile: &Profile, from_can: &mut Option<FromCan>, j: &mut Judge<'_, W>, c: &mut Counts) -> std::io::Result<()> {
+    match (msg, from_can.as_mut()) {
+        (Msg::Can(f), Some(fc)) => {
+            for m in fc.push(f) {
+                release(m, profile, j, c)?;
+            }
+            Ok(())
+        }
+        (msg, _) => release(msg, profile, j, c),
+    }
 }
 
 fn release<W: Write>(msg: Msg, profile: &Profile, j: &mut Judge<'_, W>, c: &mut Counts) -> std::io::Result<()> {

@@ -68,6 +68,34 @@ fn load_and_replay(p: &Path) {
     let _ = host_sim::input::load(p, &host_sim::input::LoadOptions { skip_bad_rows: true, ..Default::default() });
 }
 
+/// A drive as a Parquet file (the arrow-rs reader: footer, Thrift metadata, pages, snappy),
+/// strict and skipping bad rows, from bytes and from a file; what loads is synchronised and
+/// judged, and written back as Parquet, which must read again, and again to the same events.
+pub fn drive_parquet(data: &[u8]) {
+    use host_sim::input::{drive_parquet, LoadOptions};
+    let _ = drive_parquet::looks_like_parquet(data);
+    let name = Path::new("fuzz.parquet");
+    for skip in [false, true] {
+        let opts = LoadOptions { skip_bad_rows: skip, ..LoadOptions::default() };
+        let Ok(r) = drive_parquet::load_bytes(name, data.to_vec(), &opts) else { continue };
+        let (s, _) = host_sim::replay::synchronize(&r, SyncConfig::default());
+        let _ = host_sim::detect::run(&s, Config::for_profile(&UBLOX_10HZ));
+        // Written back, it reads again (rows sharing a time become one: the writer's one
+        // normalisation), and a second round trip changes nothing.
+        let round_trip = |r: &host_sim::input::Replay| {
+            let mut out = Vec::new();
+            drive_parquet::write(r, None, &mut out).expect("a replay writes as Parquet");
+            drive_parquet::load_bytes(name, out, &LoadOptions::default()).expect("our own Parquet reads back")
+        };
+        let once = round_trip(&r);
+        assert!(once.events.len() <= r.events.len(), "the writer adds no event");
+        assert_eq!(round_trip(&once).events, once.events, "a second round trip changes nothing");
+    }
+    let p = scratch("parquet").join("drive.parquet");
+    let _ = std::fs::write(&p, data);
+    load_and_replay(&p);
+}
+
 /// A drive CSV file.
 pub fn drive_csv(data: &[u8]) {
     let p = scratch("csv").join("drive.csv");
@@ -453,7 +481,7 @@ pub fn long_horizon(data: &[u8]) {
 pub type Harness = fn(&[u8]);
 
 /// All harnesses by name (the fuzz targets and the corpus replay use the same names).
-pub const TARGETS: [(&str, Harness); 17] = [
+pub const TARGETS: [(&str, Harness); 20] = [
     ("nmea", nmea),
     ("can", can),
     ("drive_csv", drive_csv),
@@ -471,6 +499,9 @@ pub const TARGETS: [(&str, Harness); 17] = [
     ("detector", detector),
     ("long_horizon", long_horizon),
     ("calibration", calibration),
+    ("blf", blf),
+    ("mdf4", mdf4),
+    ("drive_parquet", drive_parquet),
 ];
 
 /// The calibration record (`wire::calibration`) and the board's store of it. The input is:
@@ -559,6 +590,74 @@ fn block_on<F: core::future::Future>(f: F) -> F::Output {
     loop {
         if let core::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
             return v;
+        }
+    }
+}
+
+/// GNSS fields on CAN for the binary-log harnesses: a position message (0x3: valid bit, 28-bit
+/// latitude and 29-bit longitude at 1e-6 deg, as the CANedge's) and a speed message (0x7).
+pub fn gnss_on_can() -> Vec<gnss_guard_profile::GnssMapped> {
+    use gnss_guard_profile::{Field, GnssField, GnssMapped};
+    let m = |id: u32, f: Field, target: GnssField| GnssMapped { id, extended: false, bus: None, field: f, mux: None, target, factor: 1.0 };
+    vec![
+        m(3, Field::new(0, 1, false, false, 1.0, 0.0), GnssField::Valid),
+        m(3, Field::new(1, 28, false, false, 1e-6, -90.0), GnssField::Lat),
+        m(3, Field::new(29, 29, false, false, 1e-6, -180.0), GnssField::Lon),
+        m(7, Field::new(1, 20, false, false, 0.001, 0.0), GnssField::Speed),
+    ]
+}
+
+/// What every binary log reader's frames must satisfy, and GNSS from CAN assembled from them:
+/// fixes in time order with valid positions, batch and frame by frame alike.
+fn frames_and_can_gnss(frames: &[host_sim::input::logs::CanFrame]) {
+    use host_sim::input::can_gnss::{fixes_from_can, Assembler};
+    for f in frames {
+        assert!(f.t.is_finite() && f.data.len() <= 64 && (f.extended || f.id <= 0x7FF) && f.id <= 0x1FFF_FFFF, "{f:?}");
+    }
+    let mut sorted = frames.to_vec();
+    sorted.sort_by(|a, b| a.t.total_cmp(&b.t));
+    let gnss = gnss_on_can();
+    let batch = fixes_from_can(&sorted, &gnss);
+    assert!(batch.windows(2).all(|w| w[0].t <= w[1].t) && batch.iter().all(|f| f.pos.is_valid()));
+    let mut a = Assembler::new(gnss);
+    let mut live = Vec::new();
+    for f in &sorted {
+        live.extend(a.push(f));
+    }
+    live.extend(a.finish());
+    assert_eq!(live, batch, "GNSS from CAN: frame by frame is not the log's");
+}
+
+/// Vector BLF logs: the reader, strict and skipping bad objects (the input as a file's bytes, and
+/// behind a valid file header so the fuzzer reaches the objects at once); the frames through
+/// GNSS from CAN.
+pub fn blf(data: &[u8]) {
+    use host_sim::input::{blf, LoadOptions};
+    let mut with_header = b"LOGG".to_vec();
+    with_header.extend(144u32.to_le_bytes());
+    with_header.resize(144, 0);
+    with_header.extend_from_slice(data);
+    for bytes in [data, &with_header[..]] {
+        let _ = blf::looks_like_blf(bytes);
+        for skip in [false, true] {
+            let opts = LoadOptions { skip_bad_rows: skip, ..LoadOptions::default() };
+            if let Ok((frames, _)) = blf::blf_from_bytes(Path::new("fuzz.blf"), bytes, &opts) {
+                frames_and_can_gnss(&frames);
+            }
+        }
+    }
+}
+
+/// ASAM MDF 4 bus logs (through falcon_mdf): a file's bytes, as they come and with the `MDF`
+/// signature put first; the frames through GNSS from CAN.
+pub fn mdf4(data: &[u8]) {
+    use host_sim::input::mdf4;
+    let mut signed = b"MDF     4.10    ".to_vec();
+    signed.extend_from_slice(data.get(16..).unwrap_or(&[]));
+    for bytes in [data.to_vec(), signed] {
+        let _ = mdf4::looks_like_mdf4(&bytes);
+        if let Ok(m) = mdf4::mdf4_from_bytes(Path::new("fuzz.mf4"), bytes) {
+            frames_and_can_gnss(&m.frames);
         }
     }
 }

@@ -36,8 +36,10 @@ pub fn data_dir(test: &str) -> Option<PathBuf> {
 }
 
 /// A private Python venv (`target/pyvenv`) with `packages` from PyPI, made on first use: the
-/// independent implementations our decoders are cross-checked against (pynmea2, cantools).
-/// Installing them is part of the test command; a failure to install is a test failure.
+/// independent implementations our decoders are cross-checked against (pynmea2, cantools,
+/// pyubx2, python-can, asammdf). A package whose import name differs from its PyPI name is
+/// given as `import=pypi` (`can=python-can`). Installing them is part of the test command; a
+/// failure to install is a test failure.
 pub fn python_with(packages: &[&str]) -> PathBuf {
     static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
@@ -49,10 +51,17 @@ pub fn python_with(packages: &[&str]) -> PathBuf {
         let st = Command::new("python3").args(["-m", "venv"]).arg(&venv).status().expect("python3 -m venv");
         assert!(st.success(), "creating the Python venv at {} failed", venv.display());
     }
-    let imports = packages.iter().map(|p| format!("import {p}")).collect::<Vec<_>>().join("; ");
+    let names = |p: &&str| -> (String, String) {
+        match p.split_once('=') {
+            Some((i, d)) => (i.to_string(), d.to_string()),
+            None => (p.to_string(), p.to_string()),
+        }
+    };
+    let imports = packages.iter().map(|p| format!("import {}", names(p).0)).collect::<Vec<_>>().join("; ");
     let have = Command::new(&py).args(["-c", &imports]).output().is_ok_and(|o| o.status.success());
     if !have {
-        let st = Command::new(&py).args(["-m", "pip", "install", "-q"]).args(packages).status().expect("pip");
+        let dists: Vec<String> = packages.iter().map(|p| names(p).1).collect();
+        let st = Command::new(&py).args(["-m", "pip", "install", "-q"]).args(&dists).status().expect("pip");
         assert!(st.success(), "pip install {packages:?} into {} failed", venv.display());
     }
     py

@@ -12,6 +12,8 @@
 //! (report.json, report.md, figures).
 
 pub mod calibrated;
+pub mod docs;
+pub mod figures;
 pub mod fold;
 pub mod full;
 pub mod plan;

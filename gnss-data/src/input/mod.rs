@@ -6,13 +6,20 @@
 //! [`Replay::skipped_rows`] instead, and the rest of the file is kept.
 
 pub mod asc;
+pub mod blf;
 pub mod can;
+pub mod can_gnss;
 pub mod candump;
 pub mod comma2k19;
 pub mod drive;
 pub mod drive_csv;
+#[cfg(feature = "parquet")]
+pub mod drive_parquet;
+#[cfg(feature = "parquet")]
+pub mod parquet_gate;
 pub mod hdd;
 pub mod logs;
+pub mod mdf4;
 pub mod openxc;
 pub mod ubx_log;
 
@@ -35,6 +42,7 @@ pub fn detect(path: &Path) -> Option<Format> {
     }
     match path.extension().and_then(|e| e.to_str()) {
         Some("csv") => Some(Format::DriveCsv),
+        Some("parquet") | Some("pq") => Some(Format::DriveParquet),
         Some("jsonl") | Some("json") => Some(Format::OpenXc),
         _ => None,
     }
@@ -44,13 +52,17 @@ pub fn detect(path: &Path) -> Option<Format> {
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
     match detect(path) {
         Some(Format::DriveCsv) => drive_csv::load(path, opts),
+        #[cfg(feature = "parquet")]
+        Some(Format::DriveParquet) => drive_parquet::load(path, opts),
+        #[cfg(not(feature = "parquet"))]
+        Some(Format::DriveParquet) => Err(InputError::file(path, "a Parquet drive: this build reads none (gnss-data's `parquet` feature)")),
         Some(Format::Hdd) => hdd::load(path, opts),
         Some(Format::Comma2k19) => comma2k19::load(path),
         Some(Format::OpenXc) => openxc::load(path, opts),
         Some(Format::Logs) => logs::load_folder(path, opts),
         Some(Format::Simulated) | None => Err(InputError::file(
             path,
-            "not a drive: expected a .csv drive file, an OpenXC .jsonl trace, a comma2k19 segment \
+            "not a drive: expected a .csv or .parquet drive file, an OpenXC .jsonl trace, a comma2k19 segment \
              folder (with processed_log/), an HDD session folder (with general/csv/) or a logs \
              folder (a CAN log, a GNSS log, one .dbc and one .map)",
         )),

@@ -27,6 +27,8 @@ impl Event {
 pub enum Format {
     /// One CSV per drive in the common layout of `../shared/data/drives`.
     DriveCsv,
+    /// The same layout as Apache Parquet (a data lake's drives).
+    DriveParquet,
     /// A Honda Research Institute Driving Dataset session (`<session>/general/csv/*.csv`).
     Hdd,
     /// A raw comma2k19 segment (`processed_log/.../{t,value}` NumPy arrays).
@@ -43,6 +45,7 @@ impl Format {
     pub fn name(self) -> &'static str {
         match self {
             Format::DriveCsv => "drive-csv",
+            Format::DriveParquet => "drive-parquet",
             Format::Hdd => "hdd",
             Format::Comma2k19 => "comma2k19",
             Format::OpenXc => "openxc",
@@ -147,7 +150,7 @@ pub fn data_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("GNSS_DATA_DIR") {
         return PathBuf::from(d);
     }
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data")
 }
 
 /// Parses a number field; empty and `NaN` mean "no value".

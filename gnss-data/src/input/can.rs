@@ -7,7 +7,7 @@ use gnss_guard_profile::load::{self, LoadError, Profile};
 
 /// The Toyota RAV4 map of the comma2k19 data (opendbc `toyota_rav4_2017` names): the firmware's
 /// `firmware/board/profiles/toyota_rav4.map`.
-pub const RAV4_MAP: &str = include_str!("../../../../firmware/board/profiles/toyota_rav4.map");
+pub const RAV4_MAP: &str = include_str!("../../../firmware/board/profiles/toyota_rav4.map");
 
 /// A compiled decoder: the profile's mappings.
 #[derive(Clone, Debug)]

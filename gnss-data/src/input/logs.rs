@@ -6,7 +6,11 @@
 //!   (standard id, three hex digits), `12345678#...` (extended id, eight), `123#R` (remote, no
 //!   data) and `123##<flags><data>` (CAN FD). Interface names ending in a number (`can0`,
 //!   `vcan1`) give the map's bus number. Or a Vector ASC log ([`super::asc`]; channel N is bus
-//!   N - 1). BLF and MF4 are not read (README: no well-kept Rust reader of either was found).
+//!   N - 1), a Vector BLF log ([`super::blf`]; likewise), or ASAM MDF 4 bus-logging files
+//!   ([`super::mdf4`]: one `.MF4` file, or a folder of one session's files; `BusChannel` N is bus
+//!   N - 1).
+//! - GNSS on CAN: when the map names GNSS fields ([`super::can_gnss`]), the fixes come from the
+//!   CAN log itself and no GNSS log is needed.
 //! - GNSS: NMEA 0183 logs, one sentence per line, parsed by the firmware's own parser
 //!   (`gnss_guard_board::gnss::NmeaFixer`: a fix per valid RMC, GGA quality and VTG honoured).
 //!   Each line may start with a host timestamp, `(<seconds>)` or `<seconds>`, on the CAN log's
@@ -112,16 +116,36 @@ pub fn nmea_log_from_text(path: &Path, text: &str, opts: &LoadOptions) -> Result
     Ok((fixes, skipped))
 }
 
-/// Reads a CAN log, recognised by its content: candump or Vector ASC.
+/// Reads a CAN log, recognised by its content: candump, Vector ASC, Vector BLF or MDF 4 (a file,
+/// or a folder of one session's MF4 files); its frames in time order, and the lines or objects
+/// skipped.
 pub fn read_can_log(can: &Path, opts: &LoadOptions) -> Result<(Vec<CanFrame>, usize), InputError> {
+    if can.is_dir() {
+        return Ok((super::mdf4::read_mdf4_drive(can)?, 0));
+    }
     let bytes = std::fs::read(can).map_err(|e| InputError::file(can, format!("cannot read: {e}")))?;
+    can_log_from_bytes(can, bytes, opts)
+}
+
+/// [`read_can_log`] on a file's bytes.
+pub fn can_log_from_bytes(can: &Path, bytes: Vec<u8>, opts: &LoadOptions) -> Result<(Vec<CanFrame>, usize), InputError> {
+    if super::mdf4::looks_like_mdf4(&bytes) {
+        let mut frames = super::mdf4::mdf4_from_bytes(can, bytes)?.frames;
+        frames.sort_by(|a, b| a.t.total_cmp(&b.t));
+        return Ok((frames, 0));
+    }
+    if super::blf::looks_like_blf(&bytes) {
+        let (mut frames, skipped) = super::blf::blf_from_bytes(can, &bytes, opts)?;
+        frames.sort_by(|a, b| a.t.total_cmp(&b.t));
+        return Ok((frames, skipped));
+    }
     let text = String::from_utf8_lossy(&bytes);
     if looks_like_candump(&text) {
         candump_from_text(can, &text, opts)
     } else if super::asc::looks_like_asc(&text) {
         super::asc::asc_from_text(can, &text, opts)
     } else {
-        Err(InputError::line(can, 1, "expected a SocketCAN candump log (`(<seconds>) can0 123#...`) or a Vector ASC log (`date ...` first); BLF and MF4 are not read"))
+        Err(InputError::line(can, 1, "expected a CAN log: SocketCAN candump (`(<seconds>) can0 123#...`), Vector ASC (`date ...` first), Vector BLF (`LOGG` first) or ASAM MDF 4 (`MDF     ` or `UnFinMF ` first)"))
     }
 }
 
@@ -179,42 +203,79 @@ pub fn nmea_line(fixer: &mut NmeaFixer, line: &str) -> Result<Option<Fix>, Strin
     feed(fixer, t, sentence)
 }
 
-/// A drive from a CAN log and a GNSS log, decoded with `profile` (a DBC and a map file).
-pub fn load(can: &Path, gnss: &Path, profile: &Profile, opts: &LoadOptions) -> Result<Replay, InputError> {
+/// A drive from a CAN log and a GNSS log, decoded with `profile` (DBCs and a map file); without
+/// a GNSS log, the fixes the CAN log carries under the map's GNSS fields.
+pub fn load(can: &Path, gnss: Option<&Path>, profile: &Profile, opts: &LoadOptions) -> Result<Replay, InputError> {
     let (frames, skipped_can) = read_can_log(can, opts)?;
-    let (fixes, skipped_gnss, notes) = read_gnss_log(gnss, opts)?;
+    let (fixes, skipped_gnss, notes) = match gnss {
+        Some(g) => {
+            let (f, s, mut n) = read_gnss_log(g, opts)?;
+            if !profile.gnss.is_empty() {
+                n.push("GNSS from the GNSS log; the map's GNSS fields on CAN are not used".into());
+            }
+            (f, s, n)
+        }
+        None => {
+            if profile.gnss.is_empty() {
+                return Err(InputError::file(can, "expected a GNSS log, or GNSS fields (gnss_lat, gnss_lon, ...) in the map for a receiver that reports on CAN"));
+            }
+            let fixes = super::can_gnss::fixes_from_can(&frames, &profile.gnss);
+            if fixes.is_empty() {
+                return Err(InputError::file(can, "expected GNSS fixes on CAN under the map's GNSS fields, found no valid one"));
+            }
+            let note = format!("GNSS from CAN: {} fixes", fixes.len());
+            (fixes, 0, vec![note])
+        }
+    };
     let mut r = Replay::new(can, Format::Logs, events_of(&frames, fixes, profile), skipped_can + skipped_gnss);
     r.notes = notes;
     Ok(r)
 }
 
-/// A logs folder's DBC and map: its only `.dbc` and only `.map` file (`None` unless exactly one
-/// of each). Such a folder is one drive of one's own car, for `inspect`, `detect`, `attack` and
-/// `eval` alike; its other files are the CAN log and the GNSS log, told apart by content.
-pub fn folder_profile(dir: &Path) -> Option<(std::path::PathBuf, std::path::PathBuf)> {
-    let files: Vec<std::path::PathBuf> = std::fs::read_dir(dir).ok()?.flatten().map(|e| e.path()).filter(|p| p.is_file()).collect();
-    let with = |ext: &str| -> Vec<&std::path::PathBuf> { files.iter().filter(|p| p.extension().is_some_and(|x| x == ext)).collect() };
-    match (with("dbc").as_slice(), with("map").as_slice()) {
-        ([dbc], [map]) => Some(((*dbc).clone(), (*map).clone())),
+/// A logs folder's DBCs and map: its only `.map` and its `.dbc` files (`None` unless there is
+/// exactly one map and at least one DBC). Such a folder is one drive of one's own car, for
+/// `inspect`, `detect`, `attack` and `eval` alike; its other files are the CAN log (candump,
+/// ASC, BLF, or one session's MF4 files) and the GNSS log (none where the map reads GNSS from
+/// CAN), told apart by content.
+pub fn folder_profile(dir: &Path) -> Option<(Vec<std::path::PathBuf>, std::path::PathBuf)> {
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir).ok()?.flatten().map(|e| e.path()).filter(|p| p.is_file()).collect();
+    files.sort();
+    let with = |ext: &str| -> Vec<std::path::PathBuf> { files.iter().filter(|p| p.extension().is_some_and(|x| x == ext)).cloned().collect() };
+    let (dbcs, maps) = (with("dbc"), with("map"));
+    match maps.as_slice() {
+        [map] if !dbcs.is_empty() => Some((dbcs, map.clone())),
         _ => None,
     }
 }
 
-/// Loads a logs folder ([`folder_profile`]): the one CAN log and the one GNSS log among its
-/// other files (hidden files and `*.md`/`*.txt` notes are ignored).
-pub fn load_folder(dir: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
-    let (dbc, map) = folder_profile(dir).ok_or_else(|| InputError::file(dir, "expected a logs folder: one .dbc, one .map, a CAN log and a GNSS log"))?;
+/// Loads a profile from DBC files and a map file; errors name the file (and the map's line).
+pub fn load_profile(dbcs: &[std::path::PathBuf], map: &Path) -> Result<Profile, InputError> {
     let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| InputError::file(p, format!("cannot read as text: {e}")));
-    let profile = gnss_guard_profile::load::load(&read(&dbc)?, &read(&map)?).map_err(|e| InputError::file(&map, e.to_string()))?;
+    let mut texts = Vec::new();
+    for d in dbcs {
+        let text = read(d)?;
+        gnss_guard_profile::load::messages(&text).map_err(|e| InputError::file(d, e.to_string()))?;
+        let name = d.file_name().map_or_else(|| d.display().to_string(), |n| n.to_string_lossy().into_owned());
+        texts.push((name, text));
+    }
+    let named: Vec<(&str, &str)> = texts.iter().map(|(n, t)| (n.as_str(), t.as_str())).collect();
+    gnss_guard_profile::load::load_dbcs(&named, &read(map)?).map_err(|e| InputError::file(map, e.to_string()))
+}
+
+/// Loads a logs folder ([`folder_profile`]): its CAN log and GNSS log among its other files
+/// (hidden files and `*.md`/`*.txt` notes are ignored).
+pub fn load_folder(dir: &Path, opts: &LoadOptions) -> Result<Replay, InputError> {
+    let (dbcs, map) = folder_profile(dir).ok_or_else(|| InputError::file(dir, "expected a logs folder: one .map, one or more .dbc, a CAN log and a GNSS log (or GNSS on CAN)"))?;
+    let profile = load_profile(&dbcs, &map)?;
     let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| InputError::file(dir, format!("cannot list: {e}")))?
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.is_file() && p != &dbc && p != &map)
+        .filter(|p| p.is_file() && p != &map && !dbcs.contains(p))
         .filter(|p| !p.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.')) && !p.extension().is_some_and(|x| x == "md" || x == "txt"))
         .collect();
     files.sort();
-    let (mut can, mut gnss) = (Vec::new(), Vec::new());
+    let (mut can, mut gnss, mut mf4) = (Vec::new(), Vec::new(), 0);
     for f in files {
         let head: Vec<u8> = {
             use std::io::Read;
@@ -223,23 +284,31 @@ pub fn load_folder(dir: &Path, opts: &LoadOptions) -> Result<Replay, InputError>
             b
         };
         let text = String::from_utf8_lossy(&head);
-        if looks_like_candump(&text) || super::asc::looks_like_asc(&text) {
+        if super::mdf4::looks_like_mdf4(&head) {
+            mf4 += 1;
+        } else if super::blf::looks_like_blf(&head) || looks_like_candump(&text) || super::asc::looks_like_asc(&text) {
             can.push(f);
         } else if super::ubx_log::looks_like_ubx(&head) || looks_like_nmea(&text) {
             gnss.push(f);
         } else {
-            return Err(InputError::line(&f, 1, "expected a CAN log (candump, ASC) or a GNSS log (NMEA, UBX) in this logs folder"));
+            return Err(InputError::line(&f, 1, "expected a CAN log (candump, ASC, BLF, MF4) or a GNSS log (NMEA, UBX) in this logs folder"));
         }
     }
     let names = |v: &[std::path::PathBuf]| v.iter().map(|p| p.file_name().unwrap_or_default().to_string_lossy().into_owned()).collect::<Vec<_>>().join(", ");
-    match (can.as_slice(), gnss.as_slice()) {
-        ([c], [g]) => {
-            let mut r = load(c, g, &profile, opts)?;
-            r.path = dir.to_path_buf();
-            Ok(r)
-        }
-        _ => Err(InputError::file(dir, format!("expected one CAN log and one GNSS log, found CAN logs [{}] and GNSS logs [{}]", names(&can), names(&gnss)))),
-    }
+    // MF4 files: the folder itself is the CAN log (one session's files).
+    let can_log = match (can.as_slice(), mf4) {
+        ([c], 0) => c.clone(),
+        ([], n) if n > 0 => dir.to_path_buf(),
+        _ => return Err(InputError::file(dir, format!("expected one CAN log and one GNSS log (the CAN log may be MF4 files of one session; GNSS on CAN needs no GNSS log), found CAN logs [{}] and {mf4} MF4 files", names(&can)))),
+    };
+    let gnss_log = match gnss.as_slice() {
+        [g] => Some(g.as_path()),
+        [] if !profile.gnss.is_empty() => None,
+        _ => return Err(InputError::file(dir, format!("expected one CAN log and one GNSS log (none where the map reads GNSS on CAN), found GNSS logs [{}]", names(&gnss)))),
+    };
+    let mut r = load(&can_log, gnss_log, &profile, opts)?;
+    r.path = dir.to_path_buf();
+    Ok(r)
 }
 
 /// The event stream of decoded frames and fixes (fixes first, as every loader orders them).
