@@ -142,12 +142,13 @@ fn parse_row(
             v.signals[k] = num(c, name)?;
         }
     }
-    row_events(&v, (&rec[clat], &rec[clon]), last_t)
+    row_events(&v, || (rec[clat].to_string(), rec[clon].to_string()), last_t)
 }
 
 /// One row's events: a fix where `gnss_new_fix` is 1 (at `t_s - gnss_fix_age_s`), and an
-/// observation per vehicle value. `coords` is how the row wrote its coordinates (for errors).
-pub fn row_events(v: &RowValues, coords: (&str, &str), last_t: f64) -> Result<(f64, Vec<Event>), String> {
+/// observation per vehicle value. `coords` gives how the row wrote its coordinates, for the
+/// error only (called only then: formatting them for every row would cost more than the row).
+pub fn row_events(v: &RowValues, coords: impl FnOnce() -> (String, String), last_t: f64) -> Result<(f64, Vec<Event>), String> {
     let t = v.t.ok_or("column `t_s`: expected a time in seconds, found nothing")?;
     if !t.is_finite() {
         return Err("column `t_s`: expected a finite time".into());
@@ -165,9 +166,13 @@ pub fn row_events(v: &RowValues, coords: (&str, &str), last_t: f64) -> Result<(f
     if new_fix {
         let pos = match (v.lat, v.lon) {
             (Some(a), Some(b)) if LatLon::new(a, b).is_valid() => LatLon::new(a, b),
-            _ => return Err(format!(
-                "a new GNSS fix (gnss_new_fix = 1) needs coordinates: expected lat_deg in [-90, 90] and \
-                 lon_deg in [-180, 180], found {:?}, {:?}", coords.0, coords.1)),
+            _ => {
+                let (lat, lon) = coords();
+                return Err(format!(
+                    "a new GNSS fix (gnss_new_fix = 1) needs coordinates: expected lat_deg in [-90, 90] and \
+                     lon_deg in [-180, 180], found {lat:?}, {lon:?}"
+                ));
+            }
         };
         let ft = match v.age { Some(a) if (0.0..1.0).contains(&a) => t - a, _ => t };
         evs.push(Event::Fix(Fix { t: ft, pos, speed_mps: v.speed.map(|x| x as f32), course_deg: v.course.map(|x| x as f32), h_acc_m: None, receiver_spoofing: false }));

@@ -146,7 +146,7 @@ fn from_bytes(path: &Path, file: bytes::Bytes, opts: &LoadOptions) -> Result<Rep
                 v.signals[k] = at(s, i);
             }
             let shown = |x: Option<f64>| x.map_or("null".to_string(), |x| x.to_string());
-            match row_events(&v, (&shown(v.lat), &shown(v.lon)), last_t) {
+            match row_events(&v, || (shown(v.lat), shown(v.lon)), last_t) {
                 Ok((tt, evs)) => {
                     last_t = tt;
                     events.extend(evs);
