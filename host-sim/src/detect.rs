@@ -30,6 +30,11 @@ pub fn default_templates() -> TemplateSet<'static> {
 /// The f32 twin of the default LSTM model (the reference the int8 model is checked against).
 pub const DEFAULT_MODEL_F32: &[u8] = include_bytes!("../../detector-core/models/lstm.f32.bin");
 
+/// The receiver profiles by name: what `--profile` and the Python package's `profile=` take.
+pub fn receiver_profile(name: &str) -> Option<&'static ReceiverProfile> {
+    [&profile::UBLOX_10HZ, &profile::LOGGER_1HZ].into_iter().find(|p| p.name == name)
+}
+
 /// Strategy 1's predictor.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]

@@ -43,9 +43,7 @@ fn predictor_kind(name: &str) -> PyResult<PredictorKind> {
 fn receiver_profile(name: Option<&str>) -> PyResult<Option<&'static detector_core::profile::ReceiverProfile>> {
     match name {
         None => Ok(None),
-        Some("ublox-10hz") => Ok(Some(&detector_core::profile::UBLOX_10HZ)),
-        Some("logger-1hz") => Ok(Some(&detector_core::profile::LOGGER_1HZ)),
-        Some(x) => Err(value_error(format!("profile: expected 'ublox-10hz' or 'logger-1hz', found {x:?}"))),
+        Some(x) => detect::receiver_profile(x).map(Some).ok_or_else(|| value_error(format!("profile: expected 'ublox-10hz' or 'logger-1hz', found {x:?}"))),
     }
 }
 

@@ -36,11 +36,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let r = a.source.load(&a.load)?;
-    let profile = match a.profile.as_deref() {
-        Some("ublox-10hz") => Some(&detector_core::profile::UBLOX_10HZ),
-        Some(_) => Some(&detector_core::profile::LOGGER_1HZ),
-        None => None,
-    };
+    let profile = a.profile.as_deref().and_then(detect::receiver_profile);
     let stored = match &a.calibration {
         Some(f) => detect::read_calibration(f),
         None => None,

@@ -64,7 +64,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         anyhow::bail!(InputError::file(&a.map, "expected --gnss, or GNSS fields (gnss_lat, gnss_lon, ...) in the map for a receiver that reports on CAN"));
     }
     let opts = host_sim::live::Options {
-        profile: a.profile.as_deref().map(|p| if p == "ublox-10hz" { &detector_core::profile::UBLOX_10HZ } else { &detector_core::profile::LOGGER_1HZ }),
+        profile: a.profile.as_deref().and_then(host_sim::detect::receiver_profile),
         predictor: a.predictor,
         strict_merge: a.strict_merge,
         max_wait: std::time::Duration::from_secs_f64(a.max_wait_s),
