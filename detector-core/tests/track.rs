@@ -224,3 +224,77 @@ fn a_first_standstill_after_minutes_of_driving_agrees_with_the_bias_learnt_while
     let last = out.iter().rev().find_map(|(_, o)| *o).unwrap();
     assert!((last.gyro_bias_degps - 0.3).abs() < 0.05, "bias {}", last.gyro_bias_degps);
 }
+
+/// A car without a gyro at `v` m/s, one fix a second, no fix from `gap.0` to `gap.1` s, turning
+/// at `turn_degps` inside the gap; from the gap's end the reported position is moved by
+/// `offset` (metres along the heading at the gap's start, metres to its left).
+fn no_gyro_gap(v: f64, gap: (f64, f64), turn_degps: f64, offset: (f64, f64)) -> Vec<Sample> {
+    let (dt, mut t, mut heading) = (0.01, 0.0, 70.0f64);
+    let mut pos = LatLon::new(52.0, 5.7);
+    let (mut out, mut prev, mut dist): (Vec<Sample>, Option<(f64, LatLon)>, f64) = (Vec::new(), None, 0.0);
+    let mut next_epoch = 1.0;
+    let mut heading_at_gap = heading;
+    while t < gap.1 + 60.0 {
+        if t > gap.0 && t < gap.1 {
+            heading += turn_degps * dt;
+        } else if t <= gap.0 {
+            heading_at_gap = heading;
+        }
+        pos = destination(pos, heading, v * dt, EARTH_RADIUS_PAPER_M);
+        t += dt;
+        dist += v * dt;
+        if t + 1e-9 < next_epoch {
+            continue;
+        }
+        next_epoch += 1.0;
+        if t > gap.0 && t < gap.1 {
+            continue;
+        }
+        let mut rep = pos;
+        if t >= gap.1 {
+            rep = destination(rep, heading_at_gap, offset.0, EARTH_RADIUS_PAPER_M);
+            rep = destination(rep, heading_at_gap - 90.0, offset.1, EARTH_RADIUS_PAPER_M);
+        }
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
+        let first = prev.is_none();
+        out.push(Sample {
+            t,
+            dt_s: prev.map_or(0.0, |(pt, _)| (t - pt) as f32),
+            pos: rep,
+            shift_m: prev.map_or(Reading::Missing, |(_, pp)| Reading::Valid(haversine_m(pp, rep, EARTH_RADIUS_PAPER_M) as f32)),
+            gnss_speed: Reading::Valid(v as f32),
+            gnss_course: Reading::Missing,
+            gnss_h_acc: Reading::Missing,
+            receiver_spoofing: false,
+            signals,
+            dist_m: if first { Reading::Stale } else { Reading::Valid(dist as f32) },
+            turn_deg: Reading::Missing,
+        });
+        dist = 0.0;
+        prev = Some((t, rep));
+    }
+    out
+}
+
+#[test]
+fn without_a_gyro_a_jump_hidden_in_a_gap_is_found_by_the_distance_and_a_bend_in_one_is_not() {
+    // Fixes at 120 s and 130 s, none between (sddi_commuter's motorway outage: 10.5 s).
+    let gap = (120.5, 129.5);
+    let fired_after = |s: &[Sample]| fired(&run(s));
+    // Clean, straight and through a bend at 3 m/s^2 (28 m/s, 6.1 deg/s: 64 deg in the gap).
+    for turn in [0.0, 6.1, -6.1] {
+        let f = fired_after(&no_gyro_gap(28.0, gap, turn, (0.0, 0.0)));
+        assert!(f.is_empty(), "turning {turn} deg/s: fired at {f:?}");
+    }
+    // 137 m toward the rear left (a chord of 184 m across 280 m driven) and 100 m ahead: found at
+    // the first fix after the gap.
+    for offset in [(-113.0, 77.0), (100.0, 0.0)] {
+        let f = fired_after(&no_gyro_gap(28.0, gap, 0.0, offset));
+        assert!(f.first().is_some_and(|t| (gap.1..gap.1 + 1.5).contains(t)), "offset {offset:?}: fired at {f:?}");
+    }
+    // At 15 m/s a car can turn around in 10 s: only a chord longer than the path is a jump, so
+    // 100 m back is not found by this bound (the windows, restarted, judge what follows).
+    let f = fired_after(&no_gyro_gap(15.0, gap, 0.0, (-100.0, 0.0)));
+    assert!(f.first().is_none_or(|t| *t > gap.1 + 1.5), "fired at {f:?}");
+}

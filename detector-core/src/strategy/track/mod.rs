@@ -45,7 +45,8 @@
 //! starts inside the gap starts at its first edge instead, so a jump hidden in the gap is judged
 //! at the first fix after it, with the gap's extra variance; such windows are judged, never
 //! learnt from. Without a gyro the DR heading is the GNSS track's own: a rotated track is then
-//! invisible, the along-track part is still checked, and a gap restarts the windows. Time going
+//! invisible, the along-track part is still checked, and a gap restarts the windows; the chord
+//! across the gap is still checked against the wheels' distance (`gap_jump`). Time going
 //! backwards, an invalid sample or a longer gap starts the windows and the frame over; what was
 //! learnt about the car is kept unless the detector restarts it.
 
@@ -80,6 +81,11 @@ const MAX_SPEED_MPS: f32 = 150.0;
 /// integrals of wheel speed and yaw rate span it (a spoofer can cause a gap: the track on the
 /// other side is still compared with where the car went), seconds.
 pub const MAX_BRIDGE_S: f64 = 60.0;
+/// Across a gap the DR cannot bridge: the sustained lateral acceleration no car exceeds at
+/// speed, m/s^2; the GNSS error at both ends, metres; the wheels' scale and timing error.
+const GAP_LAT_MPS2: f32 = 5.0;
+const GAP_ERR_M: f32 = 25.0;
+const GAP_SCALE_TOL: f32 = 0.05;
 /// The span of a velocity pair, seconds: the receiver's velocity against the DR's over this
 /// much centred on it, or both displacements over this much.
 const PAIR_S: f32 = 1.0;
@@ -180,6 +186,8 @@ pub struct TrackCheck {
     aligned: bool,
     source: Option<HeadingSource>,
     last: Option<Last>,
+    /// The epoch (its time) after a gap whose chord the wheels' distance contradicts.
+    gap_jumped: Option<f64>,
     heading_anchor: Option<(f32, f32)>,
     above_since: [Option<f64>; 2],
     fast_since: Option<f64>,
@@ -245,6 +253,7 @@ impl TrackCheck {
             aligned: false,
             source: None,
             last: None,
+            gap_jumped: None,
             heading_anchor: None,
             above_since: [None; 2],
             fast_since: None,
@@ -492,6 +501,7 @@ impl TrackCheck {
             && s.dist_m.get().is_some_and(f32::is_finite)
             && s.turn_deg.get().is_some_and(f32::is_finite);
         if !continuous && !bridged && self.last.is_some() {
+            self.gap_jumped = gap.is_some_and(|gp| self.gap_jump(s, g, gp, wheel)).then_some(s.t);
             self.restart();
             return self.step(s);
         }
@@ -516,6 +526,10 @@ impl TrackCheck {
         out.calibrated = self.cal.calibrated();
         out.learning |= !out.calibrated;
         out.contradiction = self.cal.contradiction();
+        if self.gap_jumped.take() == Some(s.t) {
+            out.fired[0] = true;
+            out.uninformative = false;
+        }
         for wi in 0..WINDOWS_S.len() {
             let (s2, k2) = self.noise_params(wi);
             if let (Some(a), Some(b)) = (out.noise_s0_m.get_mut(wi), out.noise_k.get_mut(wi)) {
@@ -524,6 +538,32 @@ impl TrackCheck {
             }
         }
         Some(out)
+    }
+
+    /// A gap the DR cannot bridge (no gyro, or longer than [`MAX_BRIDGE_S`]) still bounds the
+    /// GNSS displacement across it by the wheels' distance `w`: the chord is never longer than
+    /// the path, and never shorter than a circular arc turning at [`GAP_LAT_MPS2`] all the way
+    /// (a car at speed cannot turn tighter; heading change `psi <= a * gap / v`, chord `>= w
+    /// sinc(psi / 2)`). Judged with [`GAP_ERR_M`] and [`GAP_SCALE_TOL`] of slack, only where the
+    /// epoch's distance spans the gap. A jump hidden in the gap fires the 10 s window's flag.
+    #[inline(never)]
+    fn gap_jump(&self, s: &Sample, g: (f32, f32), gap: f64, wheel: f32) -> bool {
+        let (Some(e), Some(last), Some(w)) = (self.hist.back(), self.last, s.dist_m.get()) else { return false };
+        let gap = gap as f32;
+        if !(libm::fabsf(s.dt_s - gap) < 0.5 && (0.0..=MAX_SPEED_MPS * gap).contains(&w)) {
+            return false;
+        }
+        let w = w * self.cal.scale();
+        let (dx, dy) = (g.0 - e.g.0, g.1 - e.g.1);
+        let chord = libm::sqrtf(dx * dx + dy * dy);
+        let slack = GAP_ERR_M + GAP_SCALE_TOL * w;
+        let v = if last.wheel < wheel { last.wheel } else { wheel };
+        let v = if w / gap < v { w / gap } else { v };
+        // sin(h) / h >= 1 - h^2 / 6 for every h (and below zero, no bound, once a U-turn fits;
+        // a car standing gives h = inf: no bound).
+        let half = 0.5 * GAP_LAT_MPS2 * gap / v;
+        let least = w * (1.0 - half * half * (1.0 / 6.0));
+        chord > w + slack || chord < least - slack
     }
 
     /// Dead reckoning and the history: the epoch's time since `base_t`.
