@@ -94,8 +94,11 @@ def main():
         rel_md = os.path.relpath(md, ROOT)
         with open(md, encoding="utf-8") as f:
             text = f.read()
-        for n, line in lines_outside_code(text):
-            found = [(m.group(1) == "!", m.group(3)) for m in LINK.finditer(line)]
+        outside = list(lines_outside_code(text))
+        for i, (n, line) in enumerate(outside):
+            # A link's text may wrap onto the next line: match over both, keep what starts here.
+            nxt = outside[i + 1][1] if i + 1 < len(outside) and outside[i + 1][0] == n + 1 else ""
+            found = [(m.group(1) == "!", m.group(3)) for m in LINK.finditer(line + "\n" + nxt) if m.start() < len(line)]
             r = REF.match(line)
             if r:
                 found.append((False, r.group(1)))

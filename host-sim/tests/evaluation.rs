@@ -43,6 +43,13 @@ fn real_drives_paper_attacks_detected_without_false_alarms() {
     assert_eq!(r.attacks["stop"].strategies["motion"], 10);
     assert_eq!(r.attacks["overshoot"].strategies["motion"], 10);
     assert!(r.attacks["wrong-turn"].strategies["turn"] >= 8, "wrong turns are caught by S2");
+    // Strategy 2 tells a coarse, long-constant steering sensor (sddi_commuter) from a stuck one:
+    // degraded on under 5 % of every judged source's clean epochs.
+    for src in ["sddi_commuter", "css_canedge", "comma2k19"] {
+        let (e, dg) = r.clean.per_drive.iter().filter(|c| c.source == src && c.judged)
+            .fold((0, 0), |(e, dg), c| (e + c.epochs, dg + c.degraded_epochs["turn"]));
+        assert!(e > 0 && dg * 20 < e, "{src}: strategy 2 degraded on {dg} of {e} epochs");
+    }
 }
 
 #[test]

@@ -4,6 +4,7 @@ use gnss_data::attack::AttackKind;
 use super::results::{PredictorStats, Quantization, Report, Scenario};
 use crate::output::write_atomic;
 use detector_core::strategy::StrategyId;
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -186,6 +187,7 @@ pub fn markdown(r: &Report, figures: &[String]) -> String {
     for d in &r.clean.per_drive {
         let _ = writeln!(s, "| {} | {} | {:.3} | {} | {} | {} |", d.drive, d.source, d.hours, d.profile, if d.judged { "yes" } else { "no (no wheel speed: degraded)" }, d.false_alarms);
     }
+    s.push_str(&degraded_by_source(r));
     let _ = writeln!(s, "\n## Attacks\n");
     let _ = writeln!(s, "| attack | scenarios | hosting drives | sources | detected | rate | TTD median | p95 | max | TTD epochs median / p95 / max |\n|---|---|---|---|---|---|---|---|---|---|");
     for (k, a) in &r.attacks {
@@ -242,6 +244,35 @@ pub fn markdown(r: &Report, figures: &[String]) -> String {
     s
 }
 
+
+/// Per source with wheel speed: the share of the clean drives' epochs at which each strategy
+/// said it was degraded (it could not judge: inputs missing or implausible, a stuck sensor,
+/// its warm-up).
+fn degraded_by_source(r: &Report) -> String {
+    let mut by: BTreeMap<&str, (usize, BTreeMap<&str, usize>)> = BTreeMap::new();
+    for d in r.clean.per_drive.iter().filter(|d| d.judged) {
+        let e = by.entry(d.source.as_str()).or_default();
+        e.0 += d.epochs;
+        for (k, n) in &d.degraded_epochs {
+            *e.1.entry(k).or_default() += n;
+        }
+    }
+    let mut s = String::from("\nDegraded: the share of the clean epochs at which each strategy could not judge (inputs missing or implausible, a stuck sensor, its warm-up), sources with wheel speed.\n\n| source | epochs |");
+    let names: Vec<&str> = StrategyId::ALL.iter().map(|x| x.name()).collect();
+    for n in &names {
+        let _ = write!(s, " {n} |");
+    }
+    s.push_str("\n|---|---|");
+    s.push_str(&"---|".repeat(names.len()));
+    for (src, (epochs, deg)) in &by {
+        let _ = write!(s, "\n| {src} | {epochs} |");
+        for n in &names {
+            let _ = write!(s, " {:.1} % |", 100.0 * deg.get(n).copied().unwrap_or(0) as f64 / (*epochs).max(1) as f64);
+        }
+    }
+    s.push('\n');
+    s
+}
 
 /// Each source judged with the numbers fitted on the others.
 fn held_out(r: &Report) -> String {

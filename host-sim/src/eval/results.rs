@@ -16,6 +16,10 @@ pub struct CleanDrive {
     /// Epochs where strategy 1 ran, and where it ran on the LSTM itself (not its fallback).
     pub s1_epochs: usize,
     pub s1_lstm_epochs: usize,
+    /// Epochs, and per strategy the epochs at which it said it was degraded (could not judge:
+    /// missing or implausible inputs, a stuck sensor, its own warm-up).
+    pub epochs: usize,
+    pub degraded_epochs: BTreeMap<&'static str, usize>,
     /// FNV-1a of every verdict (as the firmware's digest).
     pub digest: String,
     /// FNV-1a of the decisions only (ran, fired, degraded, reasons, alarm per epoch).

@@ -68,6 +68,8 @@ fn run_clean(d: &Drive, o: &EvalOptions, folds: &Folds) -> CleanDrive {
         false_alarms: alarm_episodes(&v),
         s1_epochs: v.iter().filter(|x| x.ran.contains(StrategyId::LocationShift)).count(),
         s1_lstm_epochs: if o.predictor == PredictorKind::Kinematic { 0 } else { v.iter().filter(|x| x.shift.is_some_and(|s| !s.fallback)).count() },
+        epochs: v.len(),
+        degraded_epochs: StrategyId::ALL.iter().map(|s| (s.name(), v.iter().filter(|x| x.degraded.contains(*s)).count())).collect(),
         digest: digest(&v),
         decisions: decisions(&v),
         decisions_to_alarm: decisions_to_alarm(&v),
