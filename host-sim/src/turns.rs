@@ -91,12 +91,38 @@ pub fn held_out(drives: &[Drive], i: usize) -> bool {
     same.iter().position(|n| *n == d.name).is_some_and(|k| k % 2 == 1)
 }
 
-/// Chooses at most `MAX_PER_CLASS` templates per class (seeded) and encodes the blob.
+/// Neighbours each training turn is compared with when the training set is edited.
+pub const EDIT_K: usize = 3;
+
+/// Wilson's editing of the training set: the turns whose label the majority of their
+/// [`EDIT_K`] nearest other training turns (banded DTW, as the classifier measures) does not
+/// share. A segment that GNSS calls straight while its steering is shaped like a right turn (a
+/// curve driven slowly, a turn whose course GNSS measured short) would otherwise become a
+/// `none` template that calls real right turns `none`. Training turns only: the held-out ones
+/// are never seen.
+pub fn mislabelled(train: &[Turn]) -> Vec<bool> {
+    use detector_core::strategy::turn::dtw::dtw_reference;
+    train
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let mut d: Vec<(f32, TurnClass)> = train.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, o)| (dtw_reference(&t.query, &o.query, BAND as usize), o.label)).collect();
+            d.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let agree = d.iter().take(EDIT_K).filter(|(_, c)| *c == t.label).count();
+            d.len() >= EDIT_K && 2 * agree < EDIT_K
+        })
+        .collect()
+}
+
+/// Chooses at most `MAX_PER_CLASS` templates per class (seeded) from the edited training set
+/// ([`mislabelled`] turns left out) and encodes the blob.
 pub fn select(train: &[Turn], seed: u64) -> Vec<u8> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut chosen = Vec::new();
+    let drop = mislabelled(train);
+    let kept: Vec<&Turn> = train.iter().zip(&drop).filter(|(_, d)| !**d).map(|(t, _)| t).collect();
     for class in [TurnClass::None, TurnClass::Left, TurnClass::Right] {
-        let mut c: Vec<&Turn> = train.iter().filter(|t| t.label == class).collect();
+        let mut c: Vec<&Turn> = kept.iter().copied().filter(|t| t.label == class).collect();
         c.shuffle(&mut rng);
         chosen.extend(c.into_iter().take(MAX_PER_CLASS).map(|t| (t.label, t.provenance, t.query)));
     }
@@ -242,4 +268,42 @@ pub fn sim_drives() -> Vec<Drive> {
         .iter()
         .map(|&s| Drive::new(gnss_data::sim::drive(s, 15.0, if s % 2 == 0 { 10.0 } else { 1.0 }), SyncConfig::default()))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn turn(label: TurnClass, peak: f32, phase: f32) -> Turn {
+        let mut query = [0.0f32; QUERY_LEN];
+        for (k, q) in query.iter_mut().enumerate() {
+            let x = k as f32 / (QUERY_LEN - 1) as f32;
+            *q = peak * (std::f32::consts::PI * x).sin() + phase * (7.0 * x).sin();
+        }
+        Turn { drive: "d".into(), provenance: Provenance::Measured, label, query, t: 0.0 }
+    }
+
+    #[test]
+    fn a_straight_labelled_segment_shaped_like_right_turns_is_edited_out_and_the_rest_kept() {
+        let mut train: Vec<Turn> = (0..4).map(|k| turn(TurnClass::Right, -70.0 - 5.0 * k as f32, k as f32)).collect();
+        train.extend((0..4).map(|k| turn(TurnClass::Left, 70.0 + 5.0 * k as f32, k as f32)));
+        train.extend((0..3).map(|k| turn(TurnClass::None, 3.0 * k as f32, 4.0)));
+        // GNSS called it straight, its steering is a right turn's.
+        train.push(turn(TurnClass::None, -72.0, 1.5));
+        let drop = mislabelled(&train);
+        assert_eq!(drop.iter().filter(|d| **d).count(), 1, "{drop:?}");
+        assert!(drop[train.len() - 1]);
+        // The edited set's template classifies a right turn right; the unedited set's nearest
+        // template for it is the mislabelled one.
+        let q = turn(TurnClass::Right, -72.0, 1.4).query;
+        let edited = select(&train, 1);
+        let set = TemplateSet::parse(&edited).unwrap();
+        assert_eq!(set.len(), train.len() - 1);
+        assert_eq!(turn::classify(&set, &q, 1).map(|n| n.class), Some(TurnClass::Right));
+        let all: Vec<_> = train.iter().map(|t| (t.label, t.provenance, t.query)).collect();
+        let mut buf = vec![0u8; 14 + all.len() * (2 + 2 * QUERY_LEN) + 4];
+        let n = TemplateSet::encode(BAND, &all, &mut buf).unwrap();
+        let unedited = TemplateSet::parse(&buf[..n]).unwrap();
+        assert_eq!(turn::classify(&unedited, &q, 1).map(|n| n.class), Some(TurnClass::None));
+    }
 }

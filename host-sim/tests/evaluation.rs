@@ -93,7 +93,8 @@ fn turn_classifier_held_out_by_drive() {
     let t = host_sim::turns::evaluate_default(&ds);
     assert!(t.held_out >= 100, "{} held-out turns", t.held_out);
     assert!(t.exact && t.exact_checked == t.held_out, "pruned == plain DTW on every query");
-    assert!(t.accuracy >= 0.9, "accuracy {}", t.accuracy);
+    // 98.0 % measured (149 of 152) with the edited training set; 93.4 % before the editing.
+    assert!(t.accuracy >= 0.97, "accuracy {}", t.accuracy);
     assert!(t.ci95_low < t.accuracy && t.accuracy < t.ci95_high);
     for p in ["measured", "derived", "simulated"] {
         assert!(t.by_provenance[p].n > 0, "{p}");
