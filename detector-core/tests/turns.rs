@@ -204,6 +204,11 @@ fn a_wheel_held_in_a_long_bend_before_a_turn_does_not_panic() {
 /// like the sddi_commuter car's): it reads 0.0 bit for bit on the straight. `stuck` keeps it at
 /// 0.0 through the turn too.
 fn coarse_steering_drive(stuck: bool) -> Vec<Sample> {
+    coarse_steering_drive_turning(stuck, 8.0)
+}
+
+/// [`coarse_steering_drive`] with the 90 deg turn (GNSS and car alike) over `turn_s` seconds.
+fn coarse_steering_drive_turning(stuck: bool, turn_s: f64) -> Vec<Sample> {
     let (dt, v) = (0.2f64, 15.0f32);
     let mut out = Vec::new();
     let mut p = LatLon::new(52.0, 5.0);
@@ -211,8 +216,8 @@ fn coarse_steering_drive(stuck: bool) -> Vec<Sample> {
     let mut prev: Option<LatLon> = None;
     for k in 0..(130.0 / dt) as usize {
         let t = k as f64 * dt;
-        let turning = (90.0..98.0).contains(&t);
-        let rate = if turning { 90.0 / 8.0 } else { 0.0 }; // deg/s, left
+        let turning = (90.0..90.0 + turn_s).contains(&t);
+        let rate = if turning { 90.0 / turn_s } else { 0.0 }; // deg/s, left
         heading = detector_core::geo::wrap_360(heading - rate * dt);
         p = destination(p, heading, v as f64 * dt, EARTH_RADIUS_PAPER_M);
         let true_steer = if turning { (rate.to_radians() / v as f64 * 2.7).atan().to_degrees() * 15.0 } else { 0.0 };
@@ -245,8 +250,89 @@ fn a_coarse_sensor_on_a_straight_road_is_healthy_and_one_stuck_through_a_turn_is
     // Healthy: 90 s of one value near centre is a straight road, never stuck.
     let healthy = run(false);
     assert!(healthy.iter().filter(|(t, _)| *t > 15.0).all(|(_, d)| !d), "a coarse healthy sensor was called stuck");
-    // Stuck at centre: the same until the car turns under it, degraded from the turn on.
+    // Stuck at centre: the same until the car turns under it. The turn is the heading check's
+    // first (GNSS turning where the wheel does not is also what a spoofed turn looks like: it
+    // must not be explained away as a stuck sensor), then the sensor is stuck: degraded once the
+    // check's windows have covered the turn (13 s after it was seen).
     let stuck = run(true);
     assert!(stuck.iter().filter(|(t, _)| *t > 15.0 && *t < 90.0).all(|(_, d)| !d), "stuck before the car turned");
-    assert!(stuck.iter().filter(|(t, _)| *t > 100.0).all(|(_, d)| *d), "a sensor at 0 through a 90 deg turn is stuck");
+    assert!(stuck.iter().filter(|(t, _)| *t > 110.0).all(|(_, d)| *d), "a sensor at 0 through a 90 deg turn is stuck");
+    let mut ts = turn::TurnStrategy::new(turn::TurnConfig::default(), None);
+    let fired: Vec<f64> = coarse_steering_drive(true)
+        .iter()
+        .filter_map(|s| match ts.step(s) {
+            turn::TurnStep::Judged(o) if o.mismatch == Some(turn::TurnMismatch::GnssTurnWheelStraight) => Some(s.t),
+            _ => None,
+        })
+        .collect();
+    assert!(fired.first().is_some_and(|t| (90.0..105.0).contains(t)), "the turn under the stuck wheel is reported: {fired:?}");
+}
+
+/// A car weaving through bends for 60 s at `v` m/s, the wheel swinging `amp` deg every
+/// `period` s (between `settle_deg` and `start_deg`: no steering segment, and not straight
+/// either), its heading what the bicycle model makes of that steering. The steering is
+/// reported `late_s` late; from 30 s the GNSS may turn right by 90 deg over 6 s more than the car.
+fn weave(v: f64, amp: f64, period: f64, gnss_extra_turn: bool, late_s: f64) -> Vec<Sample> {
+    let dt = 0.1;
+    let steer_at = |t: f64| amp * (2.0 * core::f64::consts::PI * t / period).sin() + 0.3 * (t * 7.0).sin();
+    let (mut p, mut heading, mut prev) = (LatLon::new(42.3, -83.2), 0.0f64, None);
+    let mut out = Vec::new();
+    for k in 0..600 {
+        let t = k as f64 * dt;
+        // + = left for the steering, + = right (clockwise) for headings.
+        heading -= (v * (steer_at(t) / 15.0).to_radians().tan() / 2.7).to_degrees() * dt;
+        let extra = if gnss_extra_turn { 90.0 * ((t - 30.0) / 6.0).clamp(0.0, 1.0) } else { 0.0 };
+        p = destination(p, heading + extra, v * dt, EARTH_RADIUS_PAPER_M);
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
+        signals[Signal::Steering.index()] = Reading::Valid(steer_at(t - late_s) as f32);
+        out.push(Sample {
+            t, dt_s: if prev.is_some() { dt as f32 } else { 0.0 }, pos: p,
+            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, p, EARTH_RADIUS_PAPER_M) as f32)),
+            gnss_speed: Reading::Valid(v as f32),
+            gnss_course: Reading::Valid(detector_core::geo::wrap_360(heading + extra) as f32),
+            gnss_h_acc: Reading::Missing,
+            signals,
+            ..Default::default()
+        });
+        prev = Some(p);
+    }
+    out
+}
+
+#[test]
+fn a_gnss_turn_while_the_wheel_weaves_fires_and_late_steering_through_bends_does_not() {
+    // Bends at 16 m/s, the wheel at +-55 deg every 16 s (22 deg/s of yaw at the peaks): 1.5 s
+    // of steering lag moves an 8 s window's implied course change by up to 65 deg, past the
+    // check's 60 deg, unless the steering's window is shifted to match.
+    for late in [0.0, 0.6, 1.5, -1.0] {
+        let f = turn_fired(&weave(16.0, 55.0, 16.0, false, late));
+        assert!(f.is_empty(), "bends, steering {late} s late: {:?}", f.first().map(|f| f.1.turn));
+    }
+    // Gentler bends (12 m/s, +-40 deg every 10 s), and the GNSS turns 90 deg more than the car.
+    for late in [0.0, 1.5] {
+        let f = turn_fired(&weave(12.0, 40.0, 10.0, true, late));
+        assert!(!f.is_empty(), "GNSS turned 90 deg more than the weaving wheel, steering {late} s late");
+        assert_eq!(f[0].1.turn.unwrap().mismatch, Some(turn::TurnMismatch::GnssTurnWheelStraight));
+        assert!((30.0..40.0).contains(&f[0].0), "found at {} s", f[0].0);
+    }
+}
+
+#[test]
+fn a_spoofed_turn_under_a_coarse_wheel_held_straight_is_reported_not_called_stuck() {
+    // A coarse sensor holds 0 on the straight road; the GNSS turns 90 deg over 6 s while the
+    // wheel does not (`stuck` = the wheel's value stays 0 through the turn: for strategy 2 a
+    // spoofed turn and a sensor stuck through a real one are the same evidence).
+    let mut ts = turn::TurnStrategy::new(turn::TurnConfig::default(), None);
+    let mut first = None;
+    for s in coarse_steering_drive_turning(true, 6.0) {
+        match ts.step(&s) {
+            turn::TurnStep::Judged(o) if o.mismatch == Some(turn::TurnMismatch::GnssTurnWheelStraight) => {
+                first = first.or(Some(s.t));
+            }
+            turn::TurnStep::Degraded if first.is_none() && s.t > 15.0 => panic!("degraded at {} s before the turn was reported", s.t),
+            _ => {}
+        }
+    }
+    assert!(first.is_some_and(|t| (90.0..100.0).contains(&t)), "{first:?}");
 }

@@ -14,10 +14,13 @@
 //! GNSS course change says left (< -`gnss_turn_deg`), right (> +`gnss_turn_deg`) or straight
 //! (|change| < `gnss_straight_deg`). The strategy fires when
 //! - steering says a turn and GNSS says straight or the other way, or
-//! - within the last `heading_window_s`, with the wheel below `settle_deg` all along (and 2 s
-//!   before), GNSS turned
-//!   by more than `straight_turn_deg` beyond the course change the steering implies through the
-//!   bicycle model (GNSS turns where the wheel does not).
+//! - over a window of `heading_window_s` with no steering segment, GNSS turned by more than
+//!   `straight_turn_deg` beyond the course change the steering implies through the bicycle
+//!   model (GNSS turns where the wheel does not). Two windows: the last one, while the wheel
+//!   stays below `settle_deg` all along (and the GNSS lag allowance before); and one ending 1.5 s
+//!   ago, while the wheel stays below `start_deg`, compared with the steering's window shifted
+//!   either way by the lags allowed (vehicle signals up to 1.5 s late, GNSS up to
+//!   `gnss_lag_s` + 1 s), the closest shift counting.
 //!
 //! A segment's turn must also be implied by the steering itself (integrated through the bicycle
 //! model, more than `gnss_turn_deg` the same way): a roundabout's steering can look like a turn

@@ -30,6 +30,20 @@ const HEADING_MIN_SPEED_MPS: f32 = 5.0;
 /// GNSS lag allowance, seconds (one epoch of a 1 Hz receiver).
 const HEADING_MARGIN_S: f32 = 1.0;
 
+/// How late the vehicle signals may be behind the GNSS, seconds: the heading check judges the
+/// GNSS course this long ago, so that the steering of its window has arrived (0.5 to 1.2 s on
+/// the sddi_commuter car; the nuisance suite delays them by up to 1.5 s).
+const VEHICLE_LATE_S: f32 = 1.5;
+
+/// The ticks the heading check looks back over at most (its window, margins and the vehicle
+/// signals' lag: 64 with the defaults).
+const HEADING_TICKS: usize = 80;
+
+/// Whole 5 Hz ticks in `s` seconds.
+fn ticks_of(s: f32) -> usize {
+    (s / TICK_S as f32 + 1e-3) as usize
+}
+
 /// What the strategy keeps of the previous sample, to interpolate the ticks up to the next.
 #[derive(Clone, Copy, Debug)]
 struct LastSample {
@@ -198,8 +212,9 @@ struct SameSteer {
     since: f64,
     /// The GNSS course (deg) at the start of the current comparison, and when.
     course: Option<(f32, f64)>,
-    /// The car turned under this value (a stuck sensor even near centre).
-    turned: bool,
+    /// When the car was first seen turning under this value (a stuck sensor even near centre,
+    /// once the heading check has had its windows over the turn).
+    turned_at: Option<f64>,
 }
 
 impl<'a> TurnStrategy<'a> {
@@ -241,6 +256,7 @@ impl<'a> TurnStrategy<'a> {
         let speed = s.wheel_speed().get().or(s.gnss_speed.get()).filter(|v| *v >= self.cfg.min_speed_mps);
         let near_centre = libm::fabsf(steer) <= self.cfg.straight_band_deg;
         let (heading, bicycle, band) = (self.heading, self.cfg.bicycle(), self.cfg.straight_band_deg);
+        let confirm_s = VEHICLE_LATE_S + self.cfg.heading_window_s + self.cfg.heading_margin_s();
         match &mut self.same_steer {
             Some(h) if h.value.to_bits() == steer.to_bits() && s.t >= h.since => {
                 if let (Some(v), Some(course), true) = (speed, heading, near_centre) {
@@ -249,7 +265,9 @@ impl<'a> TurnStrategy<'a> {
                             let d = course - c0;
                             let d = d - 360.0 * libm::roundf(d / 360.0);
                             let implied = bicycle.steering_deg(d / (s.t - t0) as f32, v);
-                            h.turned |= implied.is_some_and(|a| libm::fabsf(a) > 3.0 * band);
+                            if implied.is_some_and(|a| libm::fabsf(a) > 3.0 * band) && h.turned_at.is_none() {
+                                h.turned_at = Some(s.t);
+                            }
                             h.course = Some((course, s.t));
                         }
                         Some(_) => {}
@@ -258,10 +276,14 @@ impl<'a> TurnStrategy<'a> {
                 } else {
                     h.course = None;
                 }
-                speed.is_some() && (s.t - h.since) as f32 >= self.cfg.stuck_s && (!near_centre || h.turned)
+                // The turn under a straight-held wheel is first the heading check's to judge: the
+                // GNSS turning where the wheel does not is also what a spoofed turn looks like,
+                // so it must not make the strategy degraded before the check has seen it.
+                let confirmed = h.turned_at.is_some_and(|ta| (s.t - ta) as f32 >= confirm_s);
+                speed.is_some() && (s.t - h.since) as f32 >= self.cfg.stuck_s && (!near_centre || confirmed)
             }
             _ => {
-                self.same_steer = Some(SameSteer { value: steer, since: s.t, course: None, turned: false });
+                self.same_steer = Some(SameSteer { value: steer, since: s.t, course: None, turned_at: None });
                 false
             }
         }
@@ -418,45 +440,94 @@ impl<'a> TurnStrategy<'a> {
     fn gnss_only_check(&mut self, derived: bool) -> Option<TurnOutcome> {
         let c = self.cfg;
         let last = *self.seg.ticks().next_back()?;
-        let end = self.seg.len() - 1;
-        let mut from = end;
-        let mut implied = 0.0f32;
-        // Distance driven over the window by the wheels (not GNSS's, which position noise
-        // inflates), metres.
-        let mut travel = 0.0f32;
+        let newest = self.seg.len().checked_sub(1)?;
         // Ages in ticks (the ring holds consecutive ticks TICK_S apart since its restart):
         // integer comparisons instead of a soft-float subtraction per tick on the Cortex-M4.
-        let ticks_within = |s: f32| (s / TICK_S as f32 + 1e-3) as usize;
-        let (window_ticks, total_ticks) = (ticks_within(c.heading_window_s), ticks_within(c.heading_window_s + c.heading_margin_s()));
-        for (age, (i, t)) in self.seg.ticks().enumerate().rev().enumerate() {
-            if age > total_ticks {
-                break;
+        let span = ticks_of(c.heading_window_s);
+        let margin = ticks_of(c.heading_margin_s());
+        let late = ticks_of(VEHICLE_LATE_S);
+        let total = (late + span + margin).min(HEADING_TICKS - 1);
+        // Two windows of GNSS course, each `span` ticks:
+        // - `now`, ending at the newest tick, judged while the wheel stays straight (below
+        //   `settle_deg`) over it and the margin before it: a late steering signal cannot hide a
+        //   turn there, since a turn's steering passes `settle_deg` long before its course
+        //   passes `straight_turn_deg`;
+        // - `held`, ending `late` ticks ago so that its steering has arrived when the vehicle
+        //   signals are late, judged while no steering segment runs (the wheel below
+        //   `start_deg`: its turn is the bicycle model's to imply).
+        let held_end = newest.checked_sub(late)?;
+        let (mut now_ok, mut held_ok) = (true, true);
+        let (mut now_travel, mut held_travel, mut now_implied) = (0.0f32, 0.0f32, 0.0f32);
+        let min_speed = HEADING_MIN_SPEED_MPS.max(c.min_speed_mps);
+        let now_last = span + margin;
+        for (age, t) in self.seg.ticks().rev().take(total + 1).enumerate() {
+            // Moving while the GNSS course is read (at walking pace a 1 Hz receiver's bearings
+            // swing); unknown (NaN) steering or speed fails too.
+            let moving = t.speed >= min_speed;
+            let a = libm::fabsf(t.steer);
+            if now_ok {
+                if !(a < c.settle_deg && moving) {
+                    now_ok = false;
+                } else if age == now_last {
+                    break; // the wheel straight all through: `now` judges alone (see below)
+                }
             }
-            // The wheel straight over the window and a margin before it (GNSS headings lag a
-            // finished turn by up to an epoch). Unknown (NaN) steering or speed fails too.
-            if !(libm::fabsf(t.steer) < c.settle_deg && t.speed >= HEADING_MIN_SPEED_MPS.max(c.min_speed_mps)) {
+            if held_ok && !(a < c.start_deg && (moving || age < late)) {
+                held_ok = false;
+            }
+            if !(now_ok || held_ok) {
                 return None;
             }
-            if age > window_ticks {
-                continue;
+            // A tick's distance and turn come after it: the window's last tick adds none.
+            if age >= 1 && age <= span {
+                now_travel += t.speed;
+                now_implied += t.implied_deg;
             }
-            if i < end {
-                implied += t.implied_deg;
-                travel += t.speed * TICK_S as f32;
+            if age > late && age <= late + span {
+                held_travel += t.speed;
             }
-            from = i;
         }
-        let first = self.seg.tick(from)?;
-        let oldest = self.seg.ticks().next()?;
-        if ((last.t - oldest.t) as f32) < c.heading_window_s + c.heading_margin_s() - 0.5 {
-            return None; // not enough history yet
+        let (now_travel, held_travel) = (now_travel * TICK_S as f32, held_travel * TICK_S as f32);
+        let history = (last.t - self.seg.ticks().next()?.t) as f32;
+        let settled = |extra: f32| history >= extra + c.heading_window_s + c.heading_margin_s() - 0.5;
+        // Travel too short (or unknown) for the bearings to mean anything fails a window.
+        now_ok &= settled(0.0) && now_travel >= HEADING_MIN_TRAVEL_M;
+        held_ok &= settled(VEHICLE_LATE_S) && held_travel >= HEADING_MIN_TRAVEL_M;
+        let (mut change, mut implied, mut beyond, mut from, mut end) = (0.0f32, now_implied, 0.0f32, 0usize, newest);
+        if now_ok {
+            from = newest.checked_sub(span)?;
+            change = self.seg.course_change(from, newest);
+            beyond = libm::fabsf(change - implied);
         }
-        if travel.is_nan() || travel < HEADING_MIN_TRAVEL_M {
-            return None; // too slow for the bearings to mean anything
+        // With the wheel straight all through, `now` has judged: a late signal changes nothing.
+        if held_ok && !now_ok {
+            // Compared with the steering's window shifted either way by the lags allowed (the
+            // vehicle signals up to `late` ticks late: younger; the GNSS up to the margin:
+            // older); the closest of them counts.
+            let (f, e) = (held_end.checked_sub(span)?, held_end);
+            let ch = self.seg.course_change(f, e);
+            // Per age, the course change the steering implies over the tick (bicycle model).
+            let mut implied_at = [0.0f32; HEADING_TICKS];
+            for (v, t) in implied_at.iter_mut().zip(self.seg.ticks().rev()).take(total + 1) {
+                *v = t.implied_deg;
+            }
+            // The steering's implied change over `span` ticks from age `lo` on.
+            let sum = |lo: usize| implied_at.iter().skip(lo).take(span).sum::<f32>();
+            let mut run = sum(1);
+            let mut best = f32::INFINITY;
+            for lo in 1..=total.saturating_sub(span) + 1 {
+                if lo > 1 {
+                    run += implied_at.get(lo + span - 1).copied().unwrap_or(0.0) - implied_at.get(lo - 1).copied().unwrap_or(0.0);
+                }
+                best = best.min(libm::fabsf(ch - run));
+            }
+            if best > c.straight_turn_deg {
+                (change, implied, beyond, from, end) = (ch, sum(late + 1), best, f, e);
+            }
         }
-        let change = self.seg.course_change(from, end);
+        let (first, window_end) = (self.seg.tick(from)?, self.seg.tick(end)?);
         // One alarm per window.
-        if libm::fabsf(change - implied) > c.straight_turn_deg && last.t - self.last_gnss_only_alarm_t > c.heading_window_s as f64 {
+        if beyond > c.straight_turn_deg && last.t - self.last_gnss_only_alarm_t > c.heading_window_s as f64 {
             self.last_gnss_only_alarm_t = last.t;
             return Some(TurnOutcome {
                 steering: TurnClass::None,
@@ -467,7 +538,7 @@ impl<'a> TurnStrategy<'a> {
                 derived,
                 query: [0.0; QUERY_LEN],
                 start_t: first.t,
-                end_t: last.t,
+                end_t: window_end.t,
             });
         }
         None
