@@ -469,7 +469,10 @@ impl<'a> TurnStrategy<'a> {
                 if !(a < c.settle_deg && moving) {
                     now_ok = false;
                 } else if age == now_last {
-                    break; // the wheel straight all through: `now` judges alone (see below)
+                    // The wheel straight all through: `now` judges alone (see below), and `held`,
+                    // whose older ticks are left unread, does not.
+                    held_ok = false;
+                    break;
                 }
             }
             if held_ok && !(a < c.start_deg && (moving || age < late)) {
