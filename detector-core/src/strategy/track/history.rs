@@ -117,6 +117,12 @@ impl History {
         (e.t > after).then_some(e)
     }
 
+    /// The oldest entry newer than `after` (exclusive) and at or before time `t`.
+    pub(super) fn oldest_between(&self, after: f32, t: f32) -> Option<Entry> {
+        let e = *self.get(self.first_at_or_after(after + 1e-4)?)?;
+        (e.t <= t + 1e-4).then_some(e)
+    }
+
     /// The DR position at `N` times `t0, t0 + step, ...` (one walk through the history, not a
     /// search per time). `false` when a time falls outside the history or the times span a
     /// bridged gap.

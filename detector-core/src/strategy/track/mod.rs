@@ -62,7 +62,7 @@ use self::history::{Entry, History, MAX_STEP_S};
 use self::rotation::{wrap_pi, Rotation, MAX_BIAS_DEGPS};
 pub use self::config::{TrackConfig, WINDOWS_S};
 pub use self::outcome::{HeadingSource, TrackOutcome, WindowOutcome};
-use self::velocity::{VelocityTest, ACROSS};
+use self::velocity::{VelocityOutcome, VelocityTest, ACROSS};
 use crate::geo::{to_local, LatLon, EARTH_RADIUS_PAPER_M};
 use crate::sample::Sample;
 
@@ -89,6 +89,10 @@ const GAP_SCALE_TOL: f32 = 0.05;
 /// The span of a velocity pair, seconds: the receiver's velocity against the DR's over this
 /// much centred on it, or both displacements over this much.
 const PAIR_S: f32 = 1.0;
+/// Velocity pairs judged per epoch at most (a backlog, see `next_pair`, is caught up), and
+/// how far behind the newest ready entry a pair may be, seconds (older ones are skipped).
+const PAIRS_PER_EPOCH: usize = 2;
+const PAIR_BACKLOG_S: f32 = 2.0;
 /// Calibration pairs are taken at most this often, seconds (their cost is one pair per delay
 /// candidate).
 const LEARN_EVERY_S: f32 = 0.45;
@@ -720,14 +724,16 @@ impl TrackCheck {
         Some(Pair { t: e.t, g, d: scale2(sub(d1.d, d0.d), 1.0 / PAIR_S), reported: e.has_velocity() })
     }
 
-    /// The velocity pair to judge at this epoch: the newest entry not judged yet whose DR
-    /// velocity at the delay in use is known by now.
+    /// The next velocity pair to judge: the oldest entry not judged yet whose DR velocity at
+    /// the delay in use is known by now, and not older than [`PAIR_BACKLOG_S`] before that
+    /// limit. Oldest first: with the vehicle signals late, a 1 Hz fix often becomes ready only
+    /// with the next one, and taking the newest would drop every other fix.
     fn next_pair(&mut self, t: f32) -> Option<Pair> {
         let reported = self.hist.back().is_some_and(Entry::has_velocity);
         let tau = self.cal.delay_s(if reported { Source::Velocity } else { Source::Position });
         let lead = if reported { 0.5 * PAIR_S } else { 0.0 };
         let limit = t.min(t + tau - lead);
-        let e = self.hist.newest_between(self.last_pair_t, limit)?;
+        let e = self.hist.oldest_between(self.last_pair_t.max(limit - PAIR_BACKLOG_S), limit)?;
         self.last_pair_t = e.t;
         self.pair(e, tau, t)
     }
@@ -787,24 +793,34 @@ impl TrackCheck {
         // it sooner.
         let judging = !self.warming() && self.aligned_frame() && self.rot().is_some();
         // The velocity test.
-        let pair = if c.velocity.enabled { self.next_pair(t) } else { None };
-        let vel = match pair {
-            Some(p) => {
-                let r = self.residuals(&p);
-                // A position difference's window carries its ends' error: the 10 s window's
-                // learnt noise at its current length (without a gyro the fit puts the receiver's
-                // along-track wander into `k`), floored by the receiver's own accuracy.
-                let end_var = if p.reported {
-                    0.0
-                } else {
-                    let (s2, k2) = self.noise_params(0);
-                    let l = libm::sqrtf(norm2(p.d)) * WINDOWS_S[0];
-                    s2.max(acc) + k2 * l * l
-                };
-                Some((p, self.vel.observe(p.t, r, end_var)))
+        let mut vel: Option<(Pair, VelocityOutcome)> = None;
+        for _ in 0..PAIRS_PER_EPOCH {
+            let Some(p) = (if c.velocity.enabled { self.next_pair(t) } else { None }) else { break };
+            let r = self.residuals(&p);
+            // A position difference's window carries its ends' error: the learnt noise of the
+            // position window of its length (the 30 s one's for the longer: the receiver's
+            // wander is correlated over tens of seconds, so a 10 s window's noise understates
+            // a minute's) at the distance it covers (without a gyro the fit puts the
+            // receiver's along-track wander into `k`), floored by the receiver's own accuracy.
+            let mut end_var = [0.0f32; velocity::WINDOWS];
+            if !p.reported {
+                let sp = libm::sqrtf(norm2(p.d));
+                for (e, win) in end_var.iter_mut().zip(velocity::WINDOWS_S) {
+                    let (s2, k2) = self.noise_params(if win <= WINDOWS_S[0] { 0 } else { 1 });
+                    let l = sp * win;
+                    *e = s2.max(acc) + k2 * l * l;
+                }
             }
-            None => None,
-        };
+            let mut o = self.vel.observe(p.t, r, end_var);
+            // An earlier pair of this epoch that fired or raised suspicion still counts.
+            if let Some((_, prev)) = vel {
+                for (f, pf) in o.fired.iter_mut().zip(prev.fired) {
+                    *f |= pf;
+                }
+                o.suspicious |= prev.suspicious;
+            }
+            vel = Some((p, o));
+        }
         out.velocity = vel.map(|v| v.1);
         // The slowest drift the position windows see within 10 s at 150 m driven.
         let (s2, k2) = self.noise_params(0);
