@@ -818,6 +818,7 @@ impl TrackCheck {
                     *f |= pf;
                 }
                 o.suspicious |= prev.suspicious;
+                o.pairs = o.pairs.saturating_add(prev.pairs);
             }
             vel = Some((p, o));
         }

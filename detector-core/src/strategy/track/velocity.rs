@@ -165,7 +165,7 @@ struct Channel {
     diffs: [f32; DIFFS],
     n_diffs: usize,
     next_diff: usize,
-    /// The last pair: time, residual, and the last two unclipped z with their residuals.
+    /// The last pair the noise was measured from: time, residual.
     last: Option<(f32, f32)>,
     last_sigma_t: Option<f32>,
     /// The run of gross pairs: since when, in which direction, the newest pair's time.
@@ -288,6 +288,9 @@ pub struct VelocityOutcome {
     pub bound_10s_mps: f32,
     /// The noise hides drifts under the track check's bound: nothing fires (set by the check).
     pub blind: bool,
+    /// The fixes judged at this epoch (with the vehicle signals late, an epoch may judge none
+    /// and the next two; the residual is the last one's).
+    pub pairs: u8,
 }
 
 /// The test's state: two channels.
@@ -349,7 +352,7 @@ impl VelocityTest {
         let cfg = self.cfg;
         let w = self.last_t.map_or(1.0, |l| (t - l).clamp(0.05, 1.0));
         self.last_t = Some(t);
-        let mut out = VelocityOutcome { h: self.h, ..Default::default() };
+        let mut out = VelocityOutcome { h: self.h, pairs: 1, ..Default::default() };
         for (k, pair) in pairs.iter().enumerate() {
             let (Some(ch), Some(&floor)) = (self.ch.get_mut(k), cfg.floor_mps.get(k)) else { continue };
             let Some((r, v)) = pair.filter(|(r, v)| r.is_finite() && v.is_finite()) else { continue };
@@ -472,6 +475,26 @@ mod tests {
         assert!(!fires(10.0, 1.5), "1.5 s at 10 Hz");
         assert!(fires(1.0, 3.5), "four fixes at 1 Hz");
         assert!(fires(10.0, 2.5), "2.5 s at 10 Hz");
+    }
+
+    /// A window's end error (position differences) is in metres: in z units it is divided by
+    /// the noise each second's z was taken with. A noise that rises later (town) must not
+    /// shrink it under the older z and so raise the statistic without new evidence.
+    #[test]
+    fn a_rising_noise_does_not_raise_the_statistic_of_older_pairs() {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        v.set_sigma([0.2, 0.2]);
+        let ends = [25.0; WINDOWS];
+        let mut before = 0.0;
+        for k in 0..40 {
+            // A residual of 0.3 m/s, alternating by 0.05 so the noise stays near 0.2.
+            let r = 0.3 + if k % 2 == 0 { 0.05 } else { -0.05 };
+            before = v.observe(k as f32, [Some((r, 0.0)), None], ends).t_windows[ALONG][1];
+        }
+        v.set_sigma([2.0, 2.0]);
+        let after = v.observe(40.0, [Some((0.3, 0.0)), None], ends).t_windows[ALONG][1];
+        assert!(before > 0.5, "T {before}");
+        assert!(after <= before * 1.05, "T {before} -> {after} with no new evidence");
     }
 
     #[test]
