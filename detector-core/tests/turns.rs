@@ -42,6 +42,22 @@ fn pruned_knn_equals_plain_dtw_for_every_k() {
     }
 }
 
+/// One epoch's sample: the GNSS fix `pos` (its step from `prev`), speed and course where the
+/// receiver reports them, and the vehicle signals.
+fn fix(t: f64, dt: f64, pos: LatLon, prev: Option<LatLon>, speed: Option<f32>, course_deg: Option<f64>, signals: [Reading; Signal::COUNT]) -> Sample {
+    Sample {
+        t,
+        dt_s: if prev.is_some() { dt as f32 } else { 0.0 },
+        pos,
+        shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, pos, EARTH_RADIUS_PAPER_M) as f32)),
+        gnss_speed: Reading::from_opt(speed),
+        gnss_course: Reading::from_opt(course_deg.map(|c| detector_core::geo::wrap_360(c) as f32)),
+        gnss_h_acc: Reading::Missing,
+        signals,
+        ..Default::default()
+    }
+}
+
 /// A car at 8 m/s for 60 s; from 20 s it turns left 90 deg over ~8 s with the wheel at 300 deg.
 fn drive(gnss_follows: bool, wheel_turns: bool) -> Vec<Sample> {
     let (dt, v) = (0.1, 8.0f32);
@@ -64,15 +80,7 @@ fn drive(gnss_follows: bool, wheel_turns: bool) -> Vec<Sample> {
         let mut signals = [Reading::Missing; Signal::COUNT];
         signals[Signal::WheelSpeed.index()] = Reading::Valid(v);
         signals[Signal::Steering.index()] = Reading::Valid(steer);
-        out.push(Sample {
-            t, dt_s: if prev.is_some() { dt as f32 } else { 0.0 }, pos: gp,
-            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, gp, EARTH_RADIUS_PAPER_M) as f32)),
-            gnss_speed: Reading::Valid(v),
-            gnss_course: Reading::Valid(detector_core::geo::wrap_360(gnss_heading) as f32),
-            gnss_h_acc: Reading::Missing,
-            signals,
-            ..Default::default()
-        });
+        out.push(fix(t, dt, gp, prev, Some(v), Some(gnss_heading), signals));
         prev = Some(gp);
     }
     out
@@ -158,17 +166,7 @@ fn bend_then_turn(hold_s: f64) -> Vec<Sample> {
         signals[Signal::Steering.index()] = Reading::Valid(steer);
         signals[Signal::YawRate.index()] = Reading::Valid(yaw as f32);
         signals[Signal::Pedal.index()] = Reading::Valid(20.0);
-        out.push(Sample {
-            t,
-            dt_s: if prev.is_some() { dt as f32 } else { 0.0 },
-            pos: p,
-            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, p, EARTH_RADIUS_PAPER_M) as f32)),
-            gnss_speed: Reading::Valid(v),
-            gnss_course: Reading::Valid(heading as f32),
-            gnss_h_acc: Reading::Missing,
-            signals,
-            ..Default::default()
-        });
+        out.push(fix(t, dt, p, prev, Some(v), Some(heading), signals));
         prev = Some(p);
     }
     out
@@ -225,17 +223,7 @@ fn coarse_steering_drive_turning(stuck: bool, turn_s: f64) -> Vec<Sample> {
         let mut signals = [Reading::Missing; Signal::COUNT];
         signals[Signal::WheelSpeed.index()] = Reading::Valid(v);
         signals[Signal::Steering.index()] = Reading::Valid(steer);
-        out.push(Sample {
-            t,
-            dt_s: if prev.is_some() { dt as f32 } else { 0.0 },
-            pos: p,
-            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, p, EARTH_RADIUS_PAPER_M) as f32)),
-            gnss_speed: Reading::Missing,
-            gnss_course: Reading::Missing,
-            gnss_h_acc: Reading::Missing,
-            signals,
-            ..Default::default()
-        });
+        out.push(fix(t, dt, p, prev, None, None, signals));
         prev = Some(p);
     }
     out
@@ -286,15 +274,7 @@ fn weave(v: f64, amp: f64, period: f64, gnss_extra_turn: bool, late_s: f64) -> V
         let mut signals = [Reading::Missing; Signal::COUNT];
         signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
         signals[Signal::Steering.index()] = Reading::Valid(steer_at(t - late_s) as f32);
-        out.push(Sample {
-            t, dt_s: if prev.is_some() { dt as f32 } else { 0.0 }, pos: p,
-            shift_m: prev.map_or(Reading::Missing, |q| Reading::Valid(haversine_m(q, p, EARTH_RADIUS_PAPER_M) as f32)),
-            gnss_speed: Reading::Valid(v as f32),
-            gnss_course: Reading::Valid(detector_core::geo::wrap_360(heading + extra) as f32),
-            gnss_h_acc: Reading::Missing,
-            signals,
-            ..Default::default()
-        });
+        out.push(fix(t, dt, p, prev, Some(v as f32), Some(heading + extra), signals));
         prev = Some(p);
     }
     out

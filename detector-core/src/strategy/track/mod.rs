@@ -793,6 +793,10 @@ impl TrackCheck {
         // it sooner.
         let judging = !self.warming() && self.aligned_frame() && self.rot().is_some();
         // The velocity test.
+        // The position windows' learnt noise (10 s, and 30 s once a pair needs it): read once
+        // per epoch, not per pair and window (nothing below changes it before `learn`).
+        let noise0 = self.noise_params(0);
+        let mut noise1 = None;
         let mut vel: Option<(Pair, VelocityOutcome)> = None;
         for _ in 0..PAIRS_PER_EPOCH {
             let Some(p) = (if c.velocity.enabled { self.next_pair(t) } else { None }) else { break };
@@ -806,7 +810,7 @@ impl TrackCheck {
             if !p.reported {
                 let sp = libm::sqrtf(norm2(p.d));
                 for (e, win) in end_var.iter_mut().zip(velocity::WINDOWS_S) {
-                    let (s2, k2) = self.noise_params(if win <= WINDOWS_S[0] { 0 } else { 1 });
+                    let (s2, k2) = if win <= WINDOWS_S[0] { noise0 } else { *noise1.get_or_insert_with(|| self.noise_params(1)) };
                     let l = sp * win;
                     *e = s2.max(acc) + k2 * l * l;
                 }
@@ -824,7 +828,7 @@ impl TrackCheck {
         }
         out.velocity = vel.map(|v| v.1);
         // The slowest drift the position windows see within 10 s at 150 m driven.
-        let (s2, k2) = self.noise_params(0);
+        let (s2, k2) = noise0;
         let l = 150.0;
         out.bound_10s_mps = Some(self.c * libm::sqrtf(s2.max(acc) + (k2 + self.rot_var()) * l * l) / WINDOWS_S[0]);
         if moving && !judging {
