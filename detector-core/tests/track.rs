@@ -324,3 +324,28 @@ fn with_the_vehicle_signals_late_every_fix_is_judged() {
     assert!(judged + 3 >= late.len() && judged <= late.len(), "{judged} fixes judged of {}", late.len());
     assert!(fired(&o).is_empty(), "false alarm at {:?}", fired(&o));
 }
+
+/// A car without a gyro is judged by the velocity test alone: it learns at first, and once
+/// calibrated it is running, not learning all drive (the old flag followed the position
+/// windows, which never judge without a gyro: sddi_commuter said "learning" for whole drives).
+#[test]
+fn without_a_gyro_the_check_stops_learning_once_calibrated() {
+    let mut samples = drive(&Car::default(), 1500.0, 5);
+    for s in samples.iter_mut() {
+        s.signals[Signal::YawRate.index()] = Reading::Missing;
+        s.turn_deg = Reading::Missing;
+    }
+    let o = run(&samples);
+    let outs: Vec<(f64, TrackOutcome)> = o.iter().filter_map(|(t, x)| x.map(|x| (*t, x))).collect();
+    assert!(outs.first().is_some_and(|(_, x)| x.learning && !x.calibrated), "a first drive starts learning");
+    let calibrated_at = outs.iter().find(|(_, x)| x.calibrated).map(|(t, _)| *t);
+    assert!(calibrated_at.is_some_and(|t| t < 900.0), "calibrated at {calibrated_at:?}");
+    let after: Vec<&TrackOutcome> = outs.iter().filter(|(t, _)| *t > 1000.0).map(|(_, x)| x).collect();
+    let learning = after.iter().filter(|x| x.learning).count();
+    assert!(after.len() > 400 && learning * 20 <= after.len(), "learning at {learning} of {} epochs once calibrated", after.len());
+    assert!(after.iter().any(|x| x.velocity.is_some()), "the velocity test judges");
+    // Where its noise hides drifts (this simulated receiver in the turns) it says it cannot tell.
+    let blind = after.iter().filter(|x| x.velocity.is_some_and(|v| v.blind)).collect::<Vec<_>>();
+    assert!(!blind.is_empty() && blind.iter().all(|x| x.uninformative && !x.learning), "{} blind pairs", blind.len());
+    assert!(fired(&o).is_empty(), "false alarm at {:?}", fired(&o));
+}

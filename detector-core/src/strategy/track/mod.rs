@@ -207,6 +207,8 @@ pub struct TrackCheck {
     last_delay_var_across: f32,
     /// When the velocity test last judged a pair (stretch time).
     last_judged_t: f32,
+    /// Whether the velocity test's last pair this stretch was blind (`None`: no pair yet).
+    vel_blind: Option<bool>,
     // Learnt about the car (kept across short gaps).
     bias: f32,
     bias_weight: f32,
@@ -269,6 +271,7 @@ impl TrackCheck {
             last_pred: None,
             last_delay_var_across: 0.0,
             last_judged_t: f32::NEG_INFINITY,
+            vel_blind: None,
             bias: 0.0,
             bias_weight: 0.0,
             rot: Rotation::new(&cfg),
@@ -427,6 +430,7 @@ impl TrackCheck {
         self.last_learn_t = f32::NEG_INFINITY;
         self.last_pred = None;
         self.last_judged_t = f32::NEG_INFINITY;
+        self.vel_blind = None;
         self.vel.restart();
     }
 
@@ -850,8 +854,12 @@ impl TrackCheck {
         let velocity_judged = out.velocity.is_some_and(|v| !v.blind);
         if let Some(v) = out.velocity {
             self.last_judged_t = if v.blind { f32::NEG_INFINITY } else { t };
+            self.vel_blind = Some(v.blind);
         }
-        out.uninformative = windows_blind && !velocity_judged;
+        // The check cannot tell: the windows are blind and the velocity test judged nothing
+        // now, or the windows do not judge (warm-up, no gyro) and the velocity test's last pair
+        // was blind.
+        out.uninformative = windows_blind && !velocity_judged || !judging && self.vel_blind == Some(true);
         let mut above = [false; 2];
         let mut z = [0.0f32; 2];
         let live = judging && !windows_blind && moving;
@@ -897,7 +905,11 @@ impl TrackCheck {
         out.judging = out.windows.iter().any(Option::is_some) || (!windows_blind || velocity_judged) && t - self.last_judged_t <= 1.5 && moving;
         let any_above = above.iter().any(|a| *a);
         let suspicious = any_above || self.alarm.iter().any(|a| *a) || out.velocity.is_some_and(|v| v.suspicious);
-        out.learning = !judging && !windows_blind;
+        // Learning while nothing of the check judges: not the position windows (warm-up, no
+        // gyro, frame not aligned) and not the velocity test (no pair this stretch). A car
+        // without a gyro is judged by the velocity test alone: once calibrated it is running
+        // (or, where its noise hides drifts, uninformative), not learning all drive.
+        out.learning = !judging && !windows_blind && self.vel_blind.is_none();
         // Learning: only while driving, and (once calibrated) while nothing is suspicious; a
         // first drive's warm-up learns freely and says so.
         let free = !self.cal.calibrated() || self.warming();

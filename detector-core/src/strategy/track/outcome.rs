@@ -77,11 +77,13 @@ pub struct TrackOutcome {
     pub turn_scale: f32,
     /// Calibrated: from a stored record, or after the first drive's warm-up.
     pub calibrated: bool,
-    /// Still learning (the car's calibration on a first drive, the windows' warm-up, or the
-    /// frame not yet aligned).
+    /// Still learning: the car's calibration on a first drive, or nothing of the check judges
+    /// yet (the position windows in their warm-up, without a gyro or with the frame not yet
+    /// aligned, and the velocity test with no pair judged since the stretch began).
     pub learning: bool,
-    /// The position windows' learnt noise leaves them blind to drifts under `max_bound_mps`
-    /// within 10 s, and the velocity test judged nothing: the check cannot tell.
+    /// The check cannot tell: the position windows' learnt noise leaves them blind to drifts
+    /// under `max_bound_mps` within 10 s and the velocity test judged nothing, or the windows
+    /// do not judge (warm-up, no gyro) and the velocity test's last pair was blind.
     pub uninformative: bool,
     /// The check judges at this epoch: a position window judged, or the velocity test judged
     /// a pair within the last 1.5 s and is not blind (the hours a false alarm could happen in).
