@@ -349,3 +349,17 @@ fn without_a_gyro_the_check_stops_learning_once_calibrated() {
     assert!(!blind.is_empty() && blind.iter().all(|x| x.uninformative && !x.learning), "{} blind pairs", blind.len());
     assert!(fired(&o).is_empty(), "false alarm at {:?}", fired(&o));
 }
+
+/// Past 2048 s of a stretch an `f32` time's step is 2.4e-4 s, so "newer than the last pair
+/// judged" cannot be `t > last + 1e-4`: that judged every fix twice from then on (the second
+/// time with no time between, so no acceleration, and the rotation learnt from it as if the
+/// car drove straight). Every fix is judged once however long the stretch.
+#[test]
+fn past_2048_s_every_fix_is_judged_once() {
+    let o = run(&drive(&Car { first_stop_s: 3000.0, ..Car::default() }, 2500.0, 3));
+    let late = o.iter().filter(|(t, _)| *t > 2100.0).filter_map(|(_, x)| *x).collect::<Vec<_>>();
+    let judged: usize = late.iter().filter_map(|x| x.velocity).map(|v| v.pairs as usize).sum();
+    assert!(late.len() > 350, "{} epochs", late.len());
+    assert!(judged + 3 >= late.len() && judged <= late.len(), "{judged} fixes judged of {}", late.len());
+    assert!(fired(&o).is_empty(), "false alarm at {:?}", fired(&o));
+}

@@ -117,9 +117,24 @@ impl History {
         (e.t > after).then_some(e)
     }
 
+    /// The index of the first entry newer than `t` (strictly: not `t + epsilon`, which is `t`
+    /// itself once `t` passes 2048 s, where an `f32`'s step is 2.4e-4 s).
+    fn first_after(&self, t: f32) -> Option<usize> {
+        let (mut lo, mut hi) = (0usize, self.q.len());
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if self.get(mid)?.t <= t {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(lo)
+    }
+
     /// The oldest entry newer than `after` (exclusive) and at or before time `t`.
     pub(super) fn oldest_between(&self, after: f32, t: f32) -> Option<Entry> {
-        let e = *self.get(self.first_at_or_after(after + 1e-4)?)?;
+        let e = *self.get(self.first_after(after)?)?;
         (e.t <= t + 1e-4).then_some(e)
     }
 

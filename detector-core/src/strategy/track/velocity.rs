@@ -356,7 +356,15 @@ impl VelocityTest {
         let mut out = VelocityOutcome { h: self.h, pairs: 1, ..Default::default() };
         for (k, pair) in pairs.iter().enumerate() {
             let (Some(ch), Some(&floor)) = (self.ch.get_mut(k), cfg.floor_mps.get(k)) else { continue };
-            let Some((r, v)) = pair.filter(|(r, v)| r.is_finite() && v.is_finite()) else { continue };
+            let Some((r, v)) = pair.filter(|(r, v)| r.is_finite() && v.is_finite()) else {
+                // No pair for this channel now: its windows still move on with time, so
+                // their statistic is of the last seconds only, never a stale one kept while the
+                // channel is not judged (a stale statistic above `freeze h` froze learning for
+                // good: the frozen rotation's uncertainty grew until the across channel was
+                // no longer judged, and its last statistic stayed).
+                let _ = ch.bin_for(t);
+                continue;
+            };
             ch.update_sigma(t, r, &cfg, floor);
             let sd = libm::sqrtf(ch.sigma * ch.sigma + v.max(0.0));
             let z = r / sd;
@@ -496,6 +504,31 @@ mod tests {
         let after = v.observe(40.0, [Some((0.3, 0.0)), None], ends).t_windows[ALONG][1];
         assert!(before > 0.5, "T {before}");
         assert!(after <= before * 1.05, "T {before} -> {after} with no new evidence");
+    }
+
+    /// A channel that stops being judged (the across channel once the frame is no longer
+    /// aligned) keeps no statistic from before: its windows move on with the other channel's
+    /// pairs and empty. A stale statistic above `freeze h` kept learning frozen for good.
+    #[test]
+    fn a_channel_no_longer_judged_keeps_no_stale_statistic() {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        v.set_sigma([0.2, 0.2]);
+        // Alternating by 0.2 m/s: the noise measured at 0.35 m/s.
+        let alt = |k: usize| if k % 2 == 0 { 0.2 } else { -0.2 };
+        for k in 0..40 {
+            // Across: 0.5 m/s (z 1.4), suspicious but under h; along quiet.
+            let o = v.observe(k as f32, [Some((alt(k), 0.0)), Some((0.5 + alt(k), 0.0))], [0.0; WINDOWS]);
+            if k == 39 {
+                assert!(o.suspicious && o.t[ACROSS] > 0.5 * o.h && !o.fired[ACROSS], "T {:?}", o.t);
+            }
+        }
+        let mut last = None;
+        for k in 40..120 {
+            last = Some(v.observe(k as f32, [Some((alt(k), 0.0)), None], [0.0; WINDOWS]));
+        }
+        let o = last.unwrap_or_default();
+        assert_eq!(o.t_windows[ACROSS], [0.0; WINDOWS], "a stale statistic: {:?}", o.t_windows[ACROSS]);
+        assert!(!o.suspicious, "still suspicious 80 s after the channel's last pair");
     }
 
     #[test]
