@@ -112,7 +112,7 @@ impl History {
 
     /// The newest entry at or before time `t` that is newer than `after` (exclusive).
     pub(super) fn newest_between(&self, after: f32, t: f32) -> Option<Entry> {
-        let i = self.first_at_or_after(t + 1e-4)?;
+        let i = self.first_after(t)?;
         let e = *self.get(i.checked_sub(1)?)?;
         (e.t > after).then_some(e)
     }
@@ -181,5 +181,26 @@ impl History {
         let (b, e) = (self.get(i.checked_sub(1)?)?.t, self.get(i)?.t);
         let inside = ((e - b) as f64) > MAX_STEP_S + 1e-3 && t - b > 1e-3 && e - t > 1e-3;
         inside.then_some(b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Past 2048 s an `f32` time's step is 2.4e-4 s: "newer than" and "at or before" must be
+    /// exact comparisons, not `t +- 1e-4` (which is `t` itself there).
+    #[test]
+    fn between_is_exact_past_2048_s() {
+        for base in [10.0f32, 3000.0, 9000.0] {
+            let mut h = History::default();
+            for k in 0..4 {
+                h.push(Entry { t: base + k as f32, ..Default::default() });
+            }
+            let t = |e: Option<Entry>| e.map(|e| e.t - base);
+            assert_eq!(t(h.oldest_between(base + 1.0, base + 3.0)), Some(2.0), "at {base}: the entry at `after` is not newer than it");
+            assert_eq!(t(h.newest_between(base, base + 2.0)), Some(2.0), "at {base}: the entry at `t` is at or before it");
+            assert_eq!(t(h.newest_between(base + 2.0, base + 2.0)), None, "at {base}");
+        }
     }
 }
