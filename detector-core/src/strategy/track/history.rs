@@ -78,18 +78,24 @@ impl History {
         if i < a.len() { a.get(i) } else { b.get(i - a.len()) }
     }
 
-    /// The index of the first entry with time >= t (the length when there is none).
-    fn first_at_or_after(&self, t: f32) -> Option<usize> {
+    /// The index of the first entry for which `before` is false (the length when there is
+    /// none); `before` must hold for a prefix of the entries, as a time bound does.
+    fn partition_point(&self, before: impl Fn(&Entry) -> bool) -> Option<usize> {
         let (mut lo, mut hi) = (0usize, self.q.len());
         while lo < hi {
             let mid = lo + (hi - lo) / 2;
-            if self.get(mid)?.t < t {
+            if before(self.get(mid)?) {
                 lo = mid + 1;
             } else {
                 hi = mid;
             }
         }
         Some(lo)
+    }
+
+    /// The index of the first entry with time >= t (the length when there is none).
+    fn first_at_or_after(&self, t: f32) -> Option<usize> {
+        self.partition_point(|e| e.t < t)
     }
 
     /// The history interpolated at time `t`. `None` before the oldest entry, after the newest,
@@ -120,16 +126,7 @@ impl History {
     /// The index of the first entry newer than `t` (strictly: not `t + epsilon`, which is `t`
     /// itself once `t` passes 2048 s, where an `f32`'s step is 2.4e-4 s).
     fn first_after(&self, t: f32) -> Option<usize> {
-        let (mut lo, mut hi) = (0usize, self.q.len());
-        while lo < hi {
-            let mid = lo + (hi - lo) / 2;
-            if self.get(mid)?.t <= t {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
-        }
-        Some(lo)
+        self.partition_point(|e| e.t <= t)
     }
 
     /// The oldest entry newer than `after` (exclusive) and at or before time `t`.
