@@ -121,6 +121,9 @@ pub struct Synchronizer {
     prev_emitted: Option<Fix>,
     /// The integrals at the previously emitted epoch.
     prev_integrals: [Option<Integral>; Signal::COUNT],
+    /// The wheel speed's smallest change between consecutive observations so far, m/s
+    /// (infinite before any): its resolution (see [`Sample::wheel_step_mps`]).
+    wheel_step: f32,
     counters: SyncCounters,
 }
 
@@ -135,6 +138,7 @@ impl Synchronizer {
             last_fix_t: None,
             prev_emitted: None,
             prev_integrals: [None; Signal::COUNT],
+            wheel_step: f32::INFINITY,
             counters: SyncCounters::default(),
         }
     }
@@ -187,6 +191,14 @@ impl Synchronizer {
             Some(b) if sig.integrated() => integrate(*b, t, v, gap),
             _ => Integral { value: 0.0, stretch: 0 },
         };
+        if let (Signal::WheelSpeed, Some(b)) = (sig, hist.back()) {
+            // A sensor's resolution does not change: kept across resets. Changes under 1 mm/s
+            // are rounding of a fine signal, not its step.
+            let d = libm::fabsf(v - b.v);
+            if d > 1e-3 && d < self.wheel_step {
+                self.wheel_step = d;
+            }
+        }
         if hist.is_full() {
             hist.pop_front();
         }
@@ -357,6 +369,7 @@ impl Synchronizer {
             signals,
             dist_m,
             turn_deg,
+            wheel_step_mps: if self.wheel_step.is_finite() { self.wheel_step } else { 0.0 },
         };
         self.prev_emitted = Some(p.fix);
         self.prev_integrals = integrals;
@@ -445,6 +458,35 @@ mod tests {
         assert_eq!(out[0].wheel_speed(), Reading::Valid(15.0));
         assert_eq!(out[0].steering(), Reading::Missing);
         assert_eq!(out[0].shift_m, Reading::Missing);
+    }
+
+    /// The epochs carry the wheel speed's resolution: its smallest step between two
+    /// observations, not an interpolated value's (an OBD speed in whole km/h interpolated to a
+    /// fix between two readings is no longer a multiple of 1 km/h).
+    #[test]
+    fn the_wheel_speeds_resolution_is_its_smallest_step() {
+        let kmh = 1.0 / 3.6;
+        let out = collect(|s, e| {
+            let mut e = e;
+            // 2 Hz readings of 50, 50, 51, 53, 53 km/h; fixes between them.
+            for (k, v) in [50.0f32, 50.0, 51.0, 53.0, 53.0].iter().enumerate() {
+                s.push_obs(Signal::WheelSpeed, k as f64 * 0.5, v * kmh, &mut e);
+                s.push_fix(fix(k as f64 * 0.5 + 0.2), &mut e);
+            }
+        });
+        let last = out.last().map(|x| x.wheel_step_mps);
+        assert!(last.is_some_and(|q| (q - kmh).abs() < 1e-4), "{last:?}");
+        // Before any change it is unknown (0).
+        assert_eq!(out.first().map(|x| x.wheel_step_mps), Some(0.0));
+        // A fine signal's is its own step.
+        let fine = collect(|s, e| {
+            let mut e = e;
+            for k in 0..6 {
+                s.push_obs(Signal::WheelSpeed, k as f64 * 0.1, 10.0 + 0.01 * k as f32, &mut e);
+            }
+            s.push_fix(fix(0.25), &mut e);
+        });
+        assert!(fine.first().is_some_and(|x| x.wheel_step_mps > 0.0 && x.wheel_step_mps < 0.011), "{:?}", fine.first());
     }
 
     #[test]

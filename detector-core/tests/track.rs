@@ -123,6 +123,7 @@ fn drive(car: &Car, secs: f64, seed: u64) -> Vec<Sample> {
             signals,
             dist_m: if first { Reading::Stale } else { Reading::Valid(dist as f32) },
             turn_deg: if first { Reading::Stale } else { Reading::Valid(turn as f32) },
+            wheel_step_mps: 0.0,
         });
         (dist, turn) = (0.0, 0.0);
         prev = Some((t, rep));
@@ -279,6 +280,7 @@ fn no_gyro_gap(v: f64, gap: (f64, f64), turn_degps: f64, offset: (f64, f64)) -> 
             signals,
             dist_m: if first { Reading::Stale } else { Reading::Valid(dist as f32) },
             turn_deg: Reading::Missing,
+            wheel_step_mps: 0.0,
         });
         dist = 0.0;
         prev = Some((t, rep));

@@ -418,6 +418,8 @@ impl Walk {
         let dist_m = integral(signals[Signal::WheelSpeed.index()], self.prev_signals.map(|p| p[Signal::WheelSpeed.index()]), &mut self.rng);
         let turn_deg = integral(signals[Signal::YawRate.index()], self.prev_signals.map(|p| p[Signal::YawRate.index()]), &mut self.rng);
         self.prev_signals = Some(signals);
+        // A wheel speed in whole km/h, or (with faults) any number.
+        let wheel_step_mps = if faults { self.fault_f32(1.0 / 3.6) } else { 1.0 / 3.6 };
         let sample = Sample {
             t: fix.t,
             dt_s,
@@ -430,6 +432,7 @@ impl Walk {
             signals,
             dist_m,
             turn_deg,
+            wheel_step_mps,
         };
         if fix.pos.is_valid() && self.prev_fix.is_none_or(|(pt, _)| fix.t > pt || fix.t < pt - 5.0) {
             self.prev_fix = Some((fix.t, fix.pos));

@@ -747,8 +747,9 @@ impl TrackCheck {
     ///
     /// The prediction's variance: the scale's uncertainty times the speed, the frame rotation's
     /// times the speed (across), and the delay's times the DR's acceleration along and across
-    /// (a delay known to 0.1 s is 0.2 m/s wrong while braking at 2 m/s^2).
-    fn residuals(&mut self, p: &Pair) -> [Option<(f32, f32)>; 2] {
+    /// (a delay known to 0.1 s is 0.2 m/s wrong while braking at 2 m/s^2), and the wheel
+    /// speed's rounding, `rounding` ((m/s)^2), along.
+    fn residuals(&mut self, p: &Pair, rounding: f32) -> [Option<(f32, f32)>; 2] {
         let vc = self.cfg.velocity;
         let sd = self.cal.scale_sd(self.quiet_sigma[0], vc.kappa_s);
         let pred = match self.rot() {
@@ -769,7 +770,7 @@ impl TrackCheck {
         let tau_sd = self.cal.delay_sd_s(if p.reported { Source::Velocity } else { Source::Position });
         let a_along = acc.0 * u.0 + acc.1 * u.1;
         let a_across = u.0 * acc.1 - u.1 * acc.0;
-        let va = (sd * sp) * (sd * sp) + (a_along * tau_sd) * (a_along * tau_sd);
+        let va = (sd * sp) * (sd * sp) + (a_along * tau_sd) * (a_along * tau_sd) + rounding;
         self.last_delay_var_across = (a_across * tau_sd) * (a_across * tau_sd);
         match self.rot() {
             Some(rot) => {
@@ -802,9 +803,16 @@ impl TrackCheck {
         let noise0 = self.noise_params(0);
         let mut noise1 = None;
         let mut vel: Option<(Pair, VelocityOutcome)> = None;
+        // A wheel speed rounded to its resolution `q` is off by up to `q / 2` (uniform: variance
+        // `q^2 / 12`) for as long as the speed holds: an along-track error a window shares.
+        // It is each pair's error too (so a drift's pairs are not clipped against a noise
+        // without it).
+        let q = s.wheel_step_mps;
+        let rounding = if q.is_finite() { (q * q / 12.0).clamp(0.0, 1.0) } else { 0.0 };
+        self.vel.set_common_var([rounding, 0.0]);
         for _ in 0..PAIRS_PER_EPOCH {
             let Some(p) = (if c.velocity.enabled { self.next_pair(t) } else { None }) else { break };
-            let r = self.residuals(&p);
+            let r = self.residuals(&p, rounding);
             // A position difference's window carries its ends' error: the learnt noise of the
             // position window of its length (the 30 s one's for the longer: the receiver's
             // wander is correlated over tens of seconds, so a 10 s window's noise understates

@@ -29,7 +29,10 @@
 //! the correlation time of the residual (a one-second sample is not independent of the next)
 //! and `e` the position error of the window's two ends where the GNSS velocity is a position
 //! difference (the sum of a window's position differences is its displacement: a receiver's
-//! position wandering by metres in town looks like a short drift otherwise). With
+//! position wandering by metres in town looks like a short drift otherwise). An error every
+//! pair of a window shares, `c` ((m/s)^2: a wheel speed in whole km/h is up to 0.14 m/s off
+//! for as long as the speed holds, variance `q^2 / 12` at resolution `q`), adds
+//! `c mean(1/sd)^2` under the root: no window averages it away. With
 //! `N = 2 sum_W 3600 / W` tests per hour (both channels), a budget of `B` false alarms per hour
 //! gives the threshold `h = Phi^-1(1 - B / 2N)`. A window fires once it has stayed above `h` for
 //! [`VelocityConfig::persist_s`] (the banks of finite cumulative monitors of Quartararo &
@@ -231,7 +234,10 @@ impl Channel {
     /// a window's two ends where the pairs are position differences (their sum over a window is
     /// the window's displacement, so its error is the ends' error, not a sum of independent
     /// ones); 0 for a receiver's own velocity.
-    fn statistic(&self, cfg: &VelocityConfig, end_var: &[f32; WINDOWS], kappa: f32) -> [f32; WINDOWS] {
+    ///
+    /// `common` ((m/s)^2) is an error every pair of a window shares (a coarse wheel speed's
+    /// rounding while the speed holds): no window averages it away.
+    fn statistic(&self, cfg: &VelocityConfig, end_var: &[f32; WINDOWS], kappa: f32, common: f32) -> [f32; WINDOWS] {
         let (mut zw, mut w, mut iw) = (0.0f32, 0.0f32, 0.0f32);
         let mut best = [0.0f32; WINDOWS];
         if self.head == i32::MIN {
@@ -253,7 +259,8 @@ impl Channel {
                         // the ends' share while the older z stay large).
                         let e = end_var.get(wi).copied().unwrap_or(0.0).max(0.0);
                         let ends = e * (iw / w) * (iw / w) / (w * w);
-                        *b = libm::fabsf(zw / w) / libm::sqrtf(kappa.max(0.1) / w + ends);
+                        let shared = common * (iw / w) * (iw / w);
+                        *b = libm::fabsf(zw / w) / libm::sqrtf(kappa.max(0.1) / w + ends + shared);
                     }
                 }
                 wi += 1;
@@ -301,12 +308,14 @@ pub struct VelocityTest {
     h: f32,
     ch: [Channel; 2],
     last_t: Option<f32>,
+    /// Per channel, the error every pair of a window shares, (m/s)^2 (see `Channel::statistic`).
+    common_var: [f32; 2],
 }
 
 impl VelocityTest {
     /// A test with no pairs yet, its noise at the prior.
     pub fn new(cfg: VelocityConfig) -> Self {
-        VelocityTest { cfg, h: cfg.threshold(), ch: [Channel::new(cfg.floor_mps[0].max(cfg.prior_mps)), Channel::new(cfg.floor_mps[1].max(cfg.prior_mps))], last_t: None }
+        VelocityTest { cfg, h: cfg.threshold(), ch: [Channel::new(cfg.floor_mps[0].max(cfg.prior_mps)), Channel::new(cfg.floor_mps[1].max(cfg.prior_mps))], last_t: None, common_var: [0.0; 2] }
     }
     /// Its configuration.
     pub fn config(&self) -> &VelocityConfig {
@@ -337,6 +346,13 @@ impl VelocityTest {
             if s.is_finite() {
                 c.sigma = s.max(f);
             }
+        }
+    }
+    /// The error every pair of a window shares, per channel, (m/s)^2: a wheel speed's rounding
+    /// to its resolution `q` is `q^2 / 12` along the track and stays while the speed holds.
+    pub fn set_common_var(&mut self, var: [f32; 2]) {
+        for (c, v) in self.common_var.iter_mut().zip(var) {
+            *c = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
         }
     }
     /// The channels' noise now (along, across), m/s.
@@ -388,9 +404,9 @@ impl VelocityTest {
             }
         }
         let h = self.h;
-        for (k, ch) in self.ch.iter_mut().enumerate() {
+        for ((k, ch), common) in self.ch.iter_mut().enumerate().zip(self.common_var) {
             let kappa = if end_var.iter().any(|e| *e > 0.0) { cfg.kappa_position_s } else { cfg.kappa_s };
-            let tw = ch.statistic(&cfg, &end_var, kappa);
+            let tw = ch.statistic(&cfg, &end_var, kappa, common);
             let t_w = tw.iter().fold(0.0f32, |a, b| a.max(*b));
             if let Some(o) = out.t_windows.get_mut(k) {
                 *o = tw;
@@ -529,6 +545,35 @@ mod tests {
         let o = last.unwrap_or_default();
         assert_eq!(o.t_windows[ACROSS], [0.0; WINDOWS], "a stale statistic: {:?}", o.t_windows[ACROSS]);
         assert!(!o.suspicious, "still suspicious 80 s after the channel's last pair");
+    }
+
+    /// A wheel speed in whole km/h (0.28 m/s) is off by a steady amount while the speed holds:
+    /// with its rounding as an error every pair shares it is no drift; a drift of 0.5 m/s still
+    /// is.
+    #[test]
+    fn a_coarse_wheel_speeds_rounding_is_not_a_drift() {
+        let q: f32 = 1.0 / 3.6;
+        let rounding = q * q / 12.0;
+        let run = |bias: f32, common: f32| {
+            let mut v = VelocityTest::new(VelocityConfig::default());
+            v.set_sigma([0.1, 0.1]);
+            v.set_common_var([common, 0.0]);
+            let mut fired = None;
+            for k in 0..300 {
+                // Alternating by 0.03 m/s: the noise measured at its floor.
+                let r = bias + if k % 2 == 0 { 0.03 } else { -0.03 };
+                let o = v.observe(k as f32, [Some((r, rounding.min(common))), None], [0.0; WINDOWS]);
+                if o.fired[ALONG] && fired.is_none() {
+                    fired = Some(k);
+                }
+            }
+            fired
+        };
+        // 0.2 m/s off (rounding and a scale not yet learnt): a false alarm without the term.
+        assert!(run(0.2, 0.0).is_some());
+        assert_eq!(run(0.2, rounding), None);
+        assert_eq!(run(-0.25, rounding), None);
+        assert!(run(0.5, rounding).is_some_and(|k| k <= 60), "{:?}", run(0.5, rounding));
     }
 
     #[test]
