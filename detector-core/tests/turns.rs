@@ -316,3 +316,42 @@ fn a_spoofed_turn_under_a_coarse_wheel_held_straight_is_reported_not_called_stuc
     }
     assert!(first.is_some_and(|t| (90.0..100.0).contains(&t)), "{first:?}");
 }
+
+/// A 1 Hz receiver without speed or course (openxc_ford, sddi_commuter): the car drives north,
+/// stands 20 s at a junction while the GNSS position wanders 6 m south (town noise), then pulls
+/// off turning left by 90 deg. The heading the turn is measured from is the road's, not the
+/// wander's: a bearing of the wander made it a turn from south to west, "opposite" the wheel.
+#[test]
+fn a_receivers_wander_while_standing_is_no_heading() {
+    let mut out = Vec::new();
+    let mut p = LatLon::new(42.3, -83.2);
+    let (mut heading, mut wander_m) = (0.0f64, 0.0f64);
+    let mut prev: Option<LatLon> = None;
+    for k in 0..95 {
+        let t = k as f64;
+        let (v, rate, steer) = match t {
+            t if t < 30.0 => (8.0, 0.0, 0.0),
+            t if t < 35.0 => (8.0 * (35.0 - t) / 5.0, 0.0, 0.0),
+            t if t < 55.0 => (0.0, 0.0, 0.0),
+            t if t < 63.0 => (5.0, -90.0 / 8.0, 300.0),
+            _ => (8.0, 0.0, 0.0),
+        };
+        if (35.0..55.0).contains(&t) {
+            wander_m += 0.3;
+        }
+        heading += rate;
+        p = destination(p, heading - 0.5 * rate, v, EARTH_RADIUS_PAPER_M);
+        let gp = destination(p, 180.0, wander_m, EARTH_RADIUS_PAPER_M);
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
+        signals[Signal::Steering.index()] = Reading::Valid(steer + 0.3 * ((k as f32) * 0.7).sin());
+        out.push(fix(t, 1.0, gp, prev, None, None, signals));
+        prev = Some(gp);
+    }
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).collect();
+    assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
+    assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
+}

@@ -65,13 +65,17 @@ fn no_source_is_judged_with_numbers_fitted_on_it() {
         assert_eq!(f.fitted_on.len(), sources.len() - 1);
     }
     // The proof that nothing leaks: make one source's drives different (its GNSS positions
-    // scattered, so the kinematic error term it would give is far larger) and refit. Its own
-    // fold is unchanged, bit for bit; a fold that trains on it changes.
+    // scattered, so the kinematic error term it would give is far larger, and its courses
+    // turned, so the turns its templates are cut from are others) and refit. Its own fold is
+    // unchanged, bit for bit; a fold that trains on it changes.
     let held = "css_canedge";
     let mut changed = ds.clone();
     for dr in changed.iter_mut().filter(|dr| dr.source == held) {
         for (k, s) in dr.samples.iter_mut().enumerate() {
             s.pos.lat_deg += if k % 2 == 0 { 2e-4 } else { -2e-4 };
+            if let Some(c) = s.gnss_course.get() {
+                s.gnss_course = detector_core::sample::Reading::Valid(c + (k / 50 % 2) as f32 * 90.0);
+            }
         }
     }
     let refit = fold::folds(&changed, Protocol::LeaveOneSourceOut);

@@ -195,6 +195,8 @@ pub struct TurnStrategy<'a> {
     last: Option<LastSample>,
     heading_anchor: Option<LatLon>,
     heading: Option<f32>,
+    /// When the wheels last rolled at `min_speed_mps` (see `step`, the heading).
+    rolled_t: f64,
     dist: f32,
     next_tick: f64,
     last_gnss_only_alarm_t: f64,
@@ -227,6 +229,7 @@ impl<'a> TurnStrategy<'a> {
             last: None,
             heading_anchor: None,
             heading: None,
+            rolled_t: f64::NEG_INFINITY,
             dist: 0.0,
             next_tick: 0.0,
             last_gnss_only_alarm_t: f64::NEG_INFINITY,
@@ -306,10 +309,20 @@ impl<'a> TurnStrategy<'a> {
             return TurnStep::Degraded;
         }
         // Heading: reported course when moving, else the bearing over >= BEARING_BASELINE_M of
-        // track.
+        // track, taken only until the wheels have stood (below `min_speed_mps`) for longer than
+        // the GNSS may be late: standing, a receiver that wanders by metres in town makes
+        // bearings of its own wander, and the heading the car then starts from is wrong
+        // (openxc_ford with 2.9 m of GNSS noise at a junction: a left turn of 97 deg read as 68
+        // deg to the right). The anchor follows the car meanwhile, so the first bearing after
+        // it is of the road.
         let moving = s.gnss_speed.get().is_none_or(|v| v >= self.cfg.min_speed_mps);
+        if s.wheel_speed().get().is_none_or(|v| v >= self.cfg.min_speed_mps) {
+            self.rolled_t = s.t;
+        }
+        let stood = s.t - self.rolled_t > self.cfg.gnss_lag_s as f64;
         match (s.gnss_course.get(), self.heading_anchor) {
             (Some(c), _) if moving && s.gnss_speed.is_valid() => self.heading = Some(c),
+            (_, Some(_)) if stood => self.heading_anchor = Some(s.pos),
             (_, Some(a)) => {
                 if haversine_f32_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= BEARING_BASELINE_M {
                     self.heading = Some(bearing_f32_deg(a, s.pos));
