@@ -23,6 +23,8 @@ pub(super) struct Entry {
     pub u: f32,
     /// The velocity the receiver reported (east, north), m/s; NaN when it reported none.
     pub v: (f32, f32),
+    /// Its integral since the check's `vi_since`, metres (see `TrackCheck::gnss_noise`).
+    pub vi: (f32, f32),
 }
 
 impl Entry {
@@ -113,7 +115,7 @@ impl History {
         }
         let w = if span > 0.0 { ((t - before.t) / span).clamp(0.0, 1.0) } else { 0.0 };
         let lerp = |x: (f32, f32), y: (f32, f32)| (x.0 + (y.0 - x.0) * w, x.1 + (y.1 - x.1) * w);
-        Some(Entry { t, g: lerp(before.g, after.g), d: lerp(before.d, after.d), u: before.u + (after.u - before.u) * w, v: lerp(before.v, after.v) })
+        Some(Entry { t, g: lerp(before.g, after.g), d: lerp(before.d, after.d), u: before.u + (after.u - before.u) * w, v: lerp(before.v, after.v), vi: lerp(before.vi, after.vi) })
     }
 
     /// The newest entry at or before time `t` that is newer than `after` (exclusive).

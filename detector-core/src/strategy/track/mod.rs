@@ -26,7 +26,10 @@
 //! angle; the noise of each position window, `E|e|^2 = s0^2 + (k L)^2 + P L^2` with `L = |D|`,
 //! fitted robustly. The receiver's own accuracy (NMEA GST, UBX hAcc), when it reports one,
 //! floors `s0`. All of it learns only while nothing is suspicious, within bounds and rates once
-//! calibrated, and is kept across drives as a [`calibration::Record`].
+//! calibrated, and is kept across drives as a [`calibration::Record`]. One thing is not learnt
+//! that way: a receiver that reports its velocity says how noisy its position is now (its
+//! position against the integral of its own velocity), and the 30 s window takes that, up to
+//! 12 m, where it is above the learnt noise (`TrackCheck::gnss_noise`).
 //!
 //! # The position windows' decision
 //! `z = |e| / sigma(L)`. For a two-dimensional Gaussian `e`, `P(z > c) = exp(-c^2)`; with about
@@ -86,6 +89,12 @@ pub const MAX_BRIDGE_S: f64 = 60.0;
 const GAP_LAT_MPS2: f32 = 5.0;
 const GAP_ERR_M: f32 = 25.0;
 const GAP_SCALE_TOL: f32 = 0.05;
+/// The GNSS's own position noise over the 30 s window (see `TrackCheck::gnss_noise`): at most
+/// this much, metres, is taken as noise; it rises with this time constant and falls with the
+/// second, seconds.
+const GNSS_NOISE_CAP_M: f32 = 12.0;
+const GNSS_NOISE_RISE_S: f32 = 5.0;
+const GNSS_NOISE_FALL_S: f32 = 30.0;
 /// The span of a velocity pair, seconds: the receiver's velocity against the DR's over this
 /// much centred on it, or both displacements over this much.
 const PAIR_S: f32 = 1.0;
@@ -162,6 +171,9 @@ struct Window {
     /// The window spans a bridged gap: it is judged, nothing is learnt from it.
     bridged: bool,
     z: f32,
+    /// The 30 s window's: the receiver's position against its own velocity over the window,
+    /// squared, m^2 (NaN where it reports none, and for the 10 s window).
+    gnss_e2: f32,
 }
 
 /// A velocity pair: the GNSS velocity and the DR's, m/s, and the seconds it covers.
@@ -209,6 +221,21 @@ pub struct TrackCheck {
     last_judged_t: f32,
     /// Whether the velocity test's last pair this stretch was blind (`None`: no pair yet).
     vel_blind: Option<bool>,
+    /// The receiver's reported velocity integrated, metres, since `vi_since` (stretch time;
+    /// infinite while it reports none).
+    vi: (f32, f32),
+    vi_since: f32,
+    /// The receiver's own position noise over the 30 s window, m^2: its position against the
+    /// integral of its own velocity (multipath and trees move the position by metres, not the
+    /// Doppler velocity; a position error correlated over tens of seconds is what fired that
+    /// window in town). It rises within seconds where the GNSS gets worse, falls within half a
+    /// minute, and is at most `GNSS_NOISE_CAP_M` squared. It is the GNSS's alone, so a spoofer
+    /// who moves position and velocity together (every drift) does not move it; one who moves
+    /// the position alone buys at most that much slack in the 30 s window, none in the 10 s
+    /// window or the velocity test. The 10 s window does not use it: there it cost detections
+    /// (a drift across the road at 4 m/s found within 10 s 13 -> 12 of 13 on css_canedge) and
+    /// no false alarm needed it.
+    gnss_noise: f32,
     // Learnt about the car (kept across short gaps).
     bias: f32,
     bias_weight: f32,
@@ -272,6 +299,9 @@ impl TrackCheck {
             last_delay_var_across: 0.0,
             last_judged_t: f32::NEG_INFINITY,
             vel_blind: None,
+            vi: (0.0, 0.0),
+            vi_since: f32::INFINITY,
+            gnss_noise: 0.0,
             bias: 0.0,
             bias_weight: 0.0,
             rot: Rotation::new(&cfg),
@@ -431,6 +461,7 @@ impl TrackCheck {
         self.last_pred = None;
         self.last_judged_t = f32::NEG_INFINITY;
         self.vel_blind = None;
+        self.vi_since = f32::INFINITY;
         self.vel.restart();
     }
 
@@ -674,7 +705,21 @@ impl TrackCheck {
             }
             _ => (f32::NAN, f32::NAN),
         };
-        self.hist.push(Entry { t, g, d: self.dr, u: self.dr_var, v });
+        // The reported velocity's integral: a new stretch of it where a velocity is missing or
+        // the step is longer than consecutive epochs'.
+        let prev = self.hist.back().copied();
+        match prev {
+            Some(p) if p.has_velocity() && v.0.is_finite() && v.1.is_finite() && ((t - p.t) as f64) <= MAX_STEP_S && self.vi_since.is_finite() => {
+                let h = 0.5 * (t - p.t);
+                self.vi = (self.vi.0 + (p.v.0 + v.0) * h, self.vi.1 + (p.v.1 + v.1) * h);
+            }
+            _ if v.0.is_finite() && v.1.is_finite() => {
+                self.vi = (0.0, 0.0);
+                self.vi_since = t;
+            }
+            _ => self.vi_since = f32::INFINITY,
+        }
+        self.hist.push(Entry { t, g, d: self.dr, u: self.dr_var, v, vi: self.vi });
         t
     }
 
@@ -702,12 +747,26 @@ impl TrackCheck {
         let e2 = norm2(sub(g, cmul(self.gain(), d)));
         let (s2, k2) = self.noise_params(wi);
         let var0 = s2.max(gnss_acc_var) + k2 * l * l;
-        let var = var0 + self.rot_var() * l * l + extra;
+        // The GNSS's own noise where it is above what was learnt (see `gnss_noise`).
+        let own = if wi == 0 { 0.0 } else { self.gnss_noise - s2.max(gnss_acc_var) };
+        let var = var0 + own.max(0.0) + self.rot_var() * l * l + extra;
         if !(l.is_finite() && e2.is_finite() && var.is_finite()) {
             return None;
         }
         let z = if var > 0.0 { libm::sqrtf(e2 / var) } else { 0.0 };
-        Some(Window { g, d, l, e2, var0, var, bridged: extra > 0.0, z })
+        // The receiver's velocity over the same stretch of the car's motion as its positions:
+        // shifted by how much later it is than they are (css_canedge's course comes from a
+        // second receiver up to a second behind; unshifted, every turn would look like noise).
+        let lag = self.cal.delay_s(Source::Velocity) - tau;
+        let gnss_e2 = match (libm::fabsf(lag) > 0.05, wi == 1 && ts + lag.min(0.0) >= self.vi_since) {
+            (_, false) => f32::NAN,
+            (false, true) => norm2(sub(g, sub(end.vi, start.vi))),
+            (true, true) => match (self.hist.at(ts + lag), self.dr_at(t_end + lag, t)) {
+                (Some(a), Some(b)) => norm2(sub(g, sub(b.vi, a.vi))),
+                _ => f32::NAN,
+            },
+        };
+        Some(Window { g, d, l, e2, var0, var, bridged: extra > 0.0, z, gnss_e2 })
     }
 
     /// The velocity pair of history entry `e`, the DR's velocity taken `tau` earlier: the
@@ -790,6 +849,11 @@ impl TrackCheck {
         let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
         let acc = s.gnss_h_acc.get().filter(|a| a.is_finite() && *a > 0.0).map_or(0.0, |a| 2.0 * a * a);
         let wins = [self.window(t, 0, acc), self.window(t, 1, acc)];
+        if let Some(y) = wins[1].map(|w| w.gnss_e2).filter(|y| y.is_finite()) {
+            let y = y.min(GNSS_NOISE_CAP_M * GNSS_NOISE_CAP_M);
+            let k = (dt / if y > self.gnss_noise { GNSS_NOISE_RISE_S } else { GNSS_NOISE_FALL_S }).clamp(0.0, 1.0);
+            self.gnss_noise += (y - self.gnss_noise) * k;
+        }
         let moving = wheel >= c.min_speed_mps;
         // The position windows judge with a gyro only: without one the DR's direction is the
         // GNSS bearing of the last metres, an epoch late, so a sideways excursion of the
