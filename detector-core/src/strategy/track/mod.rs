@@ -754,18 +754,10 @@ impl TrackCheck {
             return None;
         }
         let z = if var > 0.0 { libm::sqrtf(e2 / var) } else { 0.0 };
-        // The receiver's velocity over the same stretch of the car's motion as its positions:
-        // shifted by how much later it is than they are (css_canedge's course comes from a
-        // second receiver up to a second behind; unshifted, every turn would look like noise).
-        let lag = self.cal.delay_s(Source::Velocity) - tau;
-        let gnss_e2 = match (libm::fabsf(lag) > 0.05, wi == 1 && ts + lag.min(0.0) >= self.vi_since) {
-            (_, false) => f32::NAN,
-            (false, true) => norm2(sub(g, sub(end.vi, start.vi))),
-            (true, true) => match (self.hist.at(ts + lag), self.dr_at(t_end + lag, t)) {
-                (Some(a), Some(b)) => norm2(sub(g, sub(b.vi, a.vi))),
-                _ => f32::NAN,
-            },
-        };
+        // Over the window's own entries: shifting the velocity by its learnt lag against the
+        // position took two more history searches per epoch and changed no figure of `eval`
+        // (3 of 817 scenarios' verdict streams).
+        let gnss_e2 = if wi == 1 && ts >= self.vi_since { norm2(sub(g, sub(end.vi, start.vi))) } else { f32::NAN };
         Some(Window { g, d, l, e2, var0, var, bridged: extra > 0.0, z, gnss_e2 })
     }
 
