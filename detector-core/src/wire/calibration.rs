@@ -136,13 +136,19 @@ mod at {
     pub const DT: usize = 68;
 }
 
+/// The wheel-speed scales that are physically possible (a wheel-speed signal 20 % slow or 25 %
+/// fast is another signal, not a tyre): a record's and every learnt scale stay within them.
+pub const SCALE_MIN: f32 = 0.8;
+/// See [`SCALE_MIN`].
+pub const SCALE_MAX: f32 = 1.25;
+
 impl Record {
     /// Every field finite and physically possible (what a decoded record must satisfy): the
     /// name and offset of the first that is not.
     pub fn check(&self) -> Result<(), RecordError> {
         let ok = |v: f32, lo: f32, hi: f32| v.is_finite() && (lo..=hi).contains(&v);
         let bad = |field, at| Err(RecordError::Implausible { field, at });
-        if !ok(self.scale, 0.8, 1.25) {
+        if !ok(self.scale, SCALE_MIN, SCALE_MAX) {
             return bad("scale between 0.8 and 1.25", at::SCALE);
         }
         if !ok(self.delay_s[0], -MAX_DELAY_S, MAX_DELAY_S) {
