@@ -6,7 +6,7 @@
 //!   most [`CalLimits::scale_bound`] and the delay by at most [`CalLimits::delay_bound_s`] from
 //!   it (a tyre's radius changes by tenths of a percent over weeks);
 //! - **physical**: every scale stays within [`SCALE_MIN`] to [`SCALE_MAX`], and a first drive's
-//!   starts from a prior of 1 worth [`CalLimits::prior_weight_s`] (its first slow pairs say little);
+//!   starts from a prior of 1 worth [`SCALE_PRIOR_WEIGHT_S`] (its first slow pairs say little);
 //! - **rate-limited** once calibrated: the scale by [`CalLimits::scale_rate_per_s`], the delay by
 //!   one candidate per [`CalLimits::delay_dwell_s`];
 //! - **frozen** while evidence accumulates (the caller does not call [`Calibration::learn`]
@@ -46,6 +46,10 @@ pub fn candidate(delay_s: f32) -> usize {
     if k.is_finite() { (k.max(0.0) as usize).min(DELAYS - 1) } else { ZERO }
 }
 
+/// A first drive: what the prior scale of 1 weighs against the fit, seconds of driving at 15 m/s
+/// (the fit of a first few slow pairs at a delay not yet found says little).
+pub const SCALE_PRIOR_WEIGHT_S: f32 = 2.0;
+
 /// The bounds and rates of the learning. See the module documentation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CalLimits {
@@ -68,9 +72,6 @@ pub struct CalLimits {
     pub contradict_after_s: f32,
     /// What a stored record's fit weighs at the start of a drive, seconds of driving.
     pub stored_weight_s: f32,
-    /// A first drive: what the prior scale of 1 weighs against the fit, seconds of driving at
-    /// 15 m/s (the fit of a first few slow pairs at a delay not yet found says little).
-    pub prior_weight_s: f32,
 }
 
 impl Default for CalLimits {
@@ -84,7 +85,6 @@ impl Default for CalLimits {
             delay_dwell_s: 30.0,
             contradict_after_s: 180.0,
             stored_weight_s: 120.0,
-            prior_weight_s: 2.0,
         }
     }
 }
@@ -386,10 +386,10 @@ impl Calibration {
     fn learn_scale(&mut self, src: Source, dt: f32, rate: f32, noise: f32) {
         let set = &self.sets[src as usize];
         if !self.calibrated {
-            // Free, but drawn to the prior of 1 by `prior_weight_s` (a few slow pairs right
+            // Free, but drawn to the prior of 1 by `SCALE_PRIOR_WEIGHT_S` (a few slow pairs right
             // after the first fix gave 0.54 on openxc_ford and 0.61 on sddi_commuter, whose
             // wheels are within 5 %), and within what is physically possible.
-            let b0 = self.lim.prior_weight_s * 225.0;
+            let b0 = SCALE_PRIOR_WEIGHT_S * 225.0;
             if let Some(f) = set.fits.get(set.best) {
                 let s = (f.a.0 + b0) / (f.b + b0);
                 if s.is_finite() {
