@@ -127,6 +127,10 @@ pub struct Sample {
     pub dist_m: Reading,
     /// Heading change since the previous epoch, degrees, + = left: the yaw rate's integral.
     pub turn_deg: Reading,
+    /// The turning since the previous epoch whatever its direction, degrees: the integral of
+    /// the yaw rate's magnitude (at least `|turn_deg|`). Across a GNSS gap it tells one steady
+    /// bend (`|turn_deg|`) from an S-bend or a turn and back (more).
+    pub turn_abs_deg: Reading,
     /// The wheel speed's resolution as seen so far, m/s: the smallest change between two
     /// consecutive observations (0 before any). An OBD speed in whole km/h has 0.28 m/s, and
     /// the reading is then up to half that off for as long as the speed holds: an error no

@@ -24,7 +24,9 @@
 //! integrates wheel speed and yaw rate over their observations (trapezoids) and gives each
 //! sample the distance driven and the heading change since the previous epoch
 //! ([`Sample::dist_m`], [`Sample::turn_deg`]): exact whatever the epoch rate, and across a GNSS
-//! outage too as long as the signal itself has no gap over `max_gap_s`.
+//! outage too as long as the signal itself has no gap over `max_gap_s`. The yaw rate's magnitude
+//! is integrated beside it ([`Sample::turn_abs_deg`]): across an outage the net turn alone
+//! cannot tell one steady bend from an S-bend, whose end lies metres to the side.
 
 use crate::geo::{haversine_f32_m, EARTH_RADIUS_PAPER_M};
 use crate::sample::{Fix, Reading, Sample, Signal};
@@ -86,7 +88,14 @@ struct Obs {
 struct Integral {
     value: f64,
     stretch: u32,
+    /// The integral of the signal's magnitude, modulo [`ABS_WRAP`]: only its differences
+    /// between epochs are read, so an `f32` that wraps keeps hours to the same precision.
+    abs: f32,
 }
+
+/// Where the integral of a signal's magnitude wraps (degrees for the yaw rate): far more than
+/// any epoch's turning, small enough that an `f32` keeps 0.004 of a degree.
+const ABS_WRAP: f32 = 65_536.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Slot {
@@ -189,7 +198,7 @@ impl Synchronizer {
         }
         let cum = match hist.back() {
             Some(b) if sig.integrated() => integrate(*b, t, v, gap),
-            _ => Integral { value: 0.0, stretch: 0 },
+            _ => Integral { value: 0.0, stretch: 0, abs: 0.0 },
         };
         if let (Signal::WheelSpeed, Some(b)) = (sig, hist.back()) {
             // A sensor's resolution does not change: kept across resets. Changes under 1 mm/s
@@ -350,6 +359,10 @@ impl Synchronizer {
         };
         let dist_m = since_prev(Signal::WheelSpeed);
         let turn_deg = since_prev(Signal::YawRate);
+        let turn_abs_deg = match (turn_deg, integrals[Signal::YawRate.index()], self.prev_integrals[Signal::YawRate.index()]) {
+            (Reading::Valid(_), Some(now), Some(prev)) => Reading::Valid(if now.abs >= prev.abs { now.abs - prev.abs } else { now.abs - prev.abs + ABS_WRAP }),
+            (r, _, _) => r,
+        };
         let (dt_s, shift_m) = match self.prev_emitted {
             Some(prev) if p.fix.t > prev.t => (
                 (p.fix.t - prev.t) as f32,
@@ -369,6 +382,7 @@ impl Synchronizer {
             signals,
             dist_m,
             turn_deg,
+            turn_abs_deg,
             wheel_step_mps: if self.wheel_step.is_finite() { self.wheel_step } else { 0.0 },
         };
         self.prev_emitted = Some(p.fix);
@@ -420,11 +434,19 @@ fn resolve(hist: &Deque<Obs, HISTORY>, integrated: bool, gap: f64, clock: Option
 fn integrate(b: Obs, t: f64, v: f32, gap: f64) -> Integral {
     let dt = t - b.t;
     if dt > gap {
-        Integral { value: b.cum.value, stretch: b.cum.stretch.wrapping_add(1) }
+        Integral { value: b.cum.value, stretch: b.cum.stretch.wrapping_add(1), abs: b.cum.abs }
     } else {
         // The trapezoid in f32 on the FPU (an epoch's few metres or degrees to seven digits),
         // accumulated in f64 so that hours of driving lose nothing.
-        Integral { value: b.cum.value + (dt as f32 * 0.5 * (b.v + v)) as f64, stretch: b.cum.stretch }
+        let abs = b.cum.abs + dt as f32 * 0.5 * (libm::fabsf(b.v) + libm::fabsf(v));
+        let abs = match abs {
+            a if a < ABS_WRAP => a,
+            a if a < 2.0 * ABS_WRAP => a - ABS_WRAP,
+            // Only a hostile value turns this far in one step.
+            a if a.is_finite() => libm::fmodf(a, ABS_WRAP),
+            _ => b.cum.abs,
+        };
+        Integral { value: b.cum.value + (dt as f32 * 0.5 * (b.v + v)) as f64, stretch: b.cum.stretch, abs }
     }
 }
 
@@ -487,6 +509,48 @@ mod tests {
             s.push_fix(fix(0.25), &mut e);
         });
         assert!(fine.first().is_some_and(|x| x.wheel_step_mps > 0.0 && x.wheel_step_mps < 0.011), "{:?}", fine.first());
+    }
+
+    /// Across a GNSS gap the epoch carries the net turn and the turning whatever its direction:
+    /// an S-bend (10 deg/s left for 2 s, then right for 2 s) turns 0 deg net and 40 deg in all.
+    #[test]
+    fn the_turning_of_an_s_bend_is_kept_beside_its_net_turn() {
+        let out = collect(|s, e| {
+            let mut e = e;
+            for k in 0..=50 {
+                let t = k as f64 * 0.1;
+                let yaw = if t < 0.5 { 0.0 } else if t < 2.5 { 10.0 } else if t < 4.5 { -10.0 } else { 0.0 };
+                s.push_obs(Signal::YawRate, t, yaw, &mut e);
+                s.push_obs(Signal::WheelSpeed, t, 10.0, &mut e);
+                if k == 0 {
+                    s.push_fix(fix(0.0), &mut e);
+                }
+            }
+            s.push_fix(fix(5.0), &mut e);
+            s.flush(&mut e);
+        });
+        let last = out.last().copied().unwrap_or_default();
+        let (net, all) = (last.turn_deg.get().unwrap_or(f32::NAN), last.turn_abs_deg.get().unwrap_or(f32::NAN));
+        assert!(net.abs() < 1e-3 && (all - 40.0).abs() < 1.01, "net {net}, in all {all}");
+        assert!(out.first().is_some_and(|x| !x.turn_abs_deg.is_valid()), "no turning before the first epoch");
+    }
+
+    /// The magnitude's integral wraps, its differences do not.
+    #[test]
+    fn the_turning_survives_its_integrals_wrap() {
+        let out = collect(|s, e| {
+            let mut e = e;
+            for k in 0..=60 {
+                let t = k as f64 * 0.1;
+                if k % 10 == 0 {
+                    s.push_fix(fix(t + 0.05), &mut e);
+                }
+                s.push_obs(Signal::YawRate, t, 30_000.0, &mut e);
+            }
+            s.flush(&mut e);
+        });
+        let turns: heapless::Vec<f32, 8> = out.iter().skip(1).filter_map(|x| x.turn_abs_deg.get()).collect();
+        assert!(turns.len() >= 4 && turns.iter().all(|a| (a - 30_000.0).abs() < 1.0), "{turns:?}");
     }
 
     #[test]

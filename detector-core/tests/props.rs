@@ -26,9 +26,9 @@ fn reading() -> impl Strategy<Value = Reading> {
 }
 
 fn sample() -> impl Strategy<Value = Sample> {
-    (wild_f64(), wild_f32(), wild_f64(), wild_f64(), (reading(), reading(), reading(), reading()), proptest::array::uniform5(reading()), (reading(), reading(), any::<bool>(), wild_f32()))
-        .prop_map(|(t, dt_s, lat, lon, (shift_m, gnss_speed, gnss_course, gnss_h_acc), signals, (dist_m, turn_deg, receiver_spoofing, wheel_step_mps))| Sample {
-            t, dt_s, pos: LatLon::new(lat, lon), shift_m, gnss_speed, gnss_course, gnss_h_acc, signals, dist_m, turn_deg, receiver_spoofing, wheel_step_mps,
+    (wild_f64(), wild_f32(), wild_f64(), wild_f64(), (reading(), reading(), reading(), reading()), proptest::array::uniform5(reading()), (reading(), reading(), reading(), any::<bool>(), wild_f32()))
+        .prop_map(|(t, dt_s, lat, lon, (shift_m, gnss_speed, gnss_course, gnss_h_acc), signals, (dist_m, turn_deg, turn_abs_deg, receiver_spoofing, wheel_step_mps))| Sample {
+            t, dt_s, pos: LatLon::new(lat, lon), shift_m, gnss_speed, gnss_course, gnss_h_acc, signals, dist_m, turn_deg, turn_abs_deg, receiver_spoofing, wheel_step_mps,
         })
 }
 

@@ -427,7 +427,7 @@ pub fn detector(data: &[u8]) {
         for (i, s) in signals.iter_mut().enumerate() {
             *s = reading(rec.get(i + 1).copied().unwrap_or(0), a * (i as f64 + 1.0));
         }
-        let s = Sample { t, dt_s: b as f32, pos: LatLon::new(a, b), shift_m: reading(k, b), gnss_speed: reading(k >> 2, a), gnss_course: reading(k >> 4, b), gnss_h_acc: reading(k >> 6, a), signals, dist_m: reading(k2, b), turn_deg: reading(k2 >> 2, a * b), receiver_spoofing: k2 & 0x80 != 0, wheel_step_mps: (a * b) as f32 };
+        let s = Sample { t, dt_s: b as f32, pos: LatLon::new(a, b), shift_m: reading(k, b), gnss_speed: reading(k >> 2, a), gnss_course: reading(k >> 4, b), gnss_h_acc: reading(k >> 6, a), signals, dist_m: reading(k2, b), turn_deg: reading(k2 >> 2, a * b), turn_abs_deg: reading(k2 >> 4, a - b), receiver_spoofing: k2 & 0x80 != 0, wheel_step_mps: (a * b) as f32 };
         let v = d.step(&s);
         assert_eq!(v.ran.0 & v.degraded.0, 0);
         if k % 2 == 0 {

@@ -417,6 +417,13 @@ impl Walk {
         };
         let dist_m = integral(signals[Signal::WheelSpeed.index()], self.prev_signals.map(|p| p[Signal::WheelSpeed.index()]), &mut self.rng);
         let turn_deg = integral(signals[Signal::YawRate.index()], self.prev_signals.map(|p| p[Signal::YawRate.index()]), &mut self.rng);
+        // The turning whatever its direction: the net turn's magnitude (a steady turn), or
+        // (with faults) any number.
+        let turn_abs_deg = match turn_deg.get() {
+            Some(_) if faults && self.rng.next_u64().is_multiple_of(8) => Reading::Valid(f32::from_bits(self.rng.next_u64() as u32)),
+            Some(x) => Reading::Valid(x.abs()),
+            None => turn_deg,
+        };
         self.prev_signals = Some(signals);
         // A wheel speed in whole km/h, or (with faults) any number.
         let wheel_step_mps = if faults { self.fault_f32(1.0 / 3.6) } else { 1.0 / 3.6 };
@@ -432,6 +439,7 @@ impl Walk {
             signals,
             dist_m,
             turn_deg,
+            turn_abs_deg,
             wheel_step_mps,
         };
         if fix.pos.is_valid() && self.prev_fix.is_none_or(|(pt, _)| fix.t > pt || fix.t < pt - 5.0) {

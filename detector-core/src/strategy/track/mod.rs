@@ -676,8 +676,14 @@ impl TrackCheck {
             self.dr.1 += chord * libm::sinf(mid);
             if (dt as f64) > MAX_STEP_S {
                 // Across a bridged gap the turn need not have been steady, and no GNSS corrects
-                // the gyro meanwhile.
-                let sd = chord * libm::fabsf(half) / 1.732;
+                // the gyro meanwhile. Nor need it have been one bend: the turning undone within
+                // the gap (`min` of left and right, from the yaw rate's magnitude), a heading
+                // that rose to it and fell back, moves the end sideways by up to half of it
+                // times the distance, which one arc of the net turn does not see (an S-bend
+                // in a 12 s outage on css_canedge: 34 m off a 149 m chord).
+                let undone = s.turn_abs_deg.get().zip(s.turn_deg.get()).map_or(0.0, |(a, r)| 0.5 * (a - libm::fabsf(r)));
+                let undone = if undone.is_finite() { undone.clamp(0.0, 180.0).to_radians() } else { 0.0 };
+                let sd = chord * (libm::fabsf(half) + 0.5 * undone) / 1.732;
                 let drift = chord * (0.5 * c.gap_gyro_sd_degps * dt).to_radians();
                 self.dr_var += sd * sd + drift * drift;
             }
