@@ -355,3 +355,44 @@ fn a_receivers_wander_while_standing_is_no_heading() {
     assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
     assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
 }
+
+/// A car that creeps through a sharp turn into a parking space (12 m at 2.4 m/s, the wheel at
+/// 350 deg) under a 1 Hz receiver whose position jumps 4 m back and forth every fix (town
+/// noise): the GNSS track's steps add up to more than the 15 m a turn must cover to be judged,
+/// the wheels' do not. Judged on the GNSS steps, such a crawl was read as a turn the GNSS did
+/// not make (openxc_ford under GNSS noise: six false alarms in the nuisance suite's draws).
+#[test]
+fn a_crawl_through_a_sharp_turn_is_not_judged_on_the_receivers_noise() {
+    let mut out = Vec::new();
+    let mut p = LatLon::new(42.3, -83.2);
+    let mut heading = 0.0f64;
+    let mut prev: Option<LatLon> = None;
+    for k in 0..70 {
+        let t = k as f64;
+        let (v, rate, steer) = match t {
+            t if t < 40.0 => (8.0, 0.0, 0.0),
+            t if t < 45.0 => (8.0 - 5.6 * (t - 39.0) / 6.0, 0.0, 0.0),
+            t if t < 50.0 => (2.4, 9.0, -350.0),
+            _ => (0.0, 0.0, 0.0),
+        };
+        heading += rate;
+        p = destination(p, heading - 0.5 * rate, v, EARTH_RADIUS_PAPER_M);
+        let noise = if t >= 40.0 { if k % 2 == 0 { 2.0 } else { -2.0 } } else { 0.0 };
+        let gp = destination(p, 90.0, noise, EARTH_RADIUS_PAPER_M);
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
+        signals[Signal::Steering.index()] = Reading::Valid(steer + 0.3 * ((k as f32) * 0.7).sin());
+        let mut s = fix(t, 1.0, gp, prev, None, None, signals);
+        s.dist_m = if prev.is_some() { Reading::Valid(v as f32) } else { Reading::Stale };
+        out.push(s);
+        prev = Some(gp);
+    }
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).filter(|o| o.end_t > 44.0).collect();
+    assert!(judged.is_empty(), "a crawl of 12 m judged as a turn: {judged:?}");
+    // A crawl's GNSS steps: over 15 m within the turn.
+    let steps: f32 = out.iter().filter(|s| (45.0..=50.0).contains(&s.t)).filter_map(|s| s.shift_m.get()).sum();
+    assert!(steps > 15.0, "{steps} m of GNSS steps");
+}
