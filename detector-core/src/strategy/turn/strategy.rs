@@ -339,8 +339,9 @@ impl<'a> TurnStrategy<'a> {
         // The distance driven: the wheels' where they say (a receiver's noise adds metres to
         // every step of its track, and a car that creeps through a turn into a parking space
         // then reads as a judged turn), else the GNSS track's.
-        let shift = s.shift_m.get().filter(|d| d.is_finite() && *d < 1e4).unwrap_or(0.0);
-        let shift = s.dist_m.get().filter(|d| d.is_finite() && *d >= 0.0 && *d < 1e4).unwrap_or(shift);
+        let shift = s.dist_m.get().filter(|d| d.is_finite() && *d >= 0.0 && *d < 1e4)
+            .or_else(|| s.shift_m.get().filter(|d| d.is_finite() && *d < 1e4))
+            .unwrap_or(0.0);
         let speed = s.wheel_speed().get().or(s.gnss_speed.get()).filter(|v| v.is_finite()).unwrap_or(f32::NAN);
         let mut out = None;
         let bicycle = self.cfg.bicycle();
