@@ -4,7 +4,7 @@
 //! | kind | what changes | drawn from |
 //! |---|---|---|
 //! | `delay` | GNSS position and/or speed and course reported late | 0.2 to 1.5 s |
-//! | `speed-course-1hz` | speed and course from a second, 1 Hz receiver that lags (position keeps its rate) | lag 0.5 to 1.8 s |
+//! | `speed-course-1hz` | speed and course from a second, 1 Hz receiver that lags (position keeps its rate); it steps on the same GNSS second as the first, so on a 10 Hz drive its velocity is held for up to 0.9 s more | lag 0.5 to 1.8 s |
 //! | `wheel-speed` | wheel speed scaled (tyre radius, calibration) and quantised to 1 km/h at 2 Hz (OBD) | -5 to +5 % |
 //! | `gyro` | gyro bias and scale error | bias up to 0.5 deg/s, scale -5 to +5 % |
 //! | `rate-switch` | the fix rate switching between 10, 5 and 1 Hz (10 Hz drives) | every 20 to 90 s |
@@ -270,6 +270,17 @@ pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
         let mut last_kept = f64::NEG_INFINITY;
         let mut last_t = f64::NEG_INFINITY;
         let (mut gm, mut gm_t) = ([(0.0f64, 0.0f64); 2], f64::NEG_INFINITY);
+        // A second receiver's epochs: once a second on the same GNSS time as the first
+        // receiver's fixes (both receivers step on the GNSS second), so every 1 Hz fix or every
+        // tenth 10 Hz one, not whole seconds of the logger's clock: that clock drifts against
+        // GNSS time (css_canedge: 0.1 s in 45 minutes), and a fix stamped 180.9999999 s is the
+        // same epoch as one stamped 181.0 s.
+        let second: Vec<f64> = fixes.iter().map(|f| f.t).fold(Vec::new(), |mut v, t| {
+            if v.last().is_none_or(|&l| t - l >= 0.95) {
+                v.push(t);
+            }
+            v
+        });
         for f in &fixes {
             if n.outages.iter().any(|&(a, l)| (t0 + a..t0 + a + l).contains(&f.t)) {
                 continue;
@@ -299,9 +310,8 @@ pub fn apply(r: &Replay, n: &Nuisance, seed: u64) -> Replay {
                 (g.speed_mps, g.course_deg) = track.vel(f.t - d);
             }
             if let Some(lag) = n.vel_1hz_lag_s {
-                // The second receiver's latest epoch (whole seconds of the drive) reports the
-                // velocity of `lag` before it.
-                let k = ((f.t - t0).floor()).max(0.0) + t0;
+                // The second receiver's latest epoch reports the velocity of `lag` before it.
+                let k = second.partition_point(|&e| e <= f.t + 1e-6).checked_sub(1).and_then(|i| second.get(i)).copied().unwrap_or(f.t);
                 (g.speed_mps, g.course_deg) = track.vel(k - lag);
             }
             if let Some((tau, sd)) = n.gnss_noise {
@@ -409,6 +419,41 @@ mod tests {
         assert!(g.events.iter().all(|e| !matches!(e, Event::Obs { sig: Signal::YawRate, v, .. } if (*v - 0.5).abs() > 1e-6)));
         // Nothing is nothing.
         assert_eq!(apply(&r, &Nuisance::default(), 1).events, r.events);
+    }
+
+    /// A drive whose reported speed ramps at 0.1 m/s^2 from 5 m/s (so a velocity's age is
+    /// `(speed - 5) / 0.1` after its fix), fixes every `dt` seconds of GNSS time stamped by a
+    /// logger whose clock starts 1e-7 s short of it and runs 1e-4 slow.
+    fn ramp(dt: f64, n: usize) -> Replay {
+        let mut ev = Vec::new();
+        for k in 0..n {
+            let t = (k as f64 * dt * (1.0 + 1e-4) - 1e-7).max(0.0);
+            ev.push(Event::Fix(Fix { t, pos: LatLon::new(48.0 + t * 1e-4, 11.0), speed_mps: Some(5.0 + 0.1 * t as f32), course_deg: Some(0.0), h_acc_m: None, receiver_spoofing: false }));
+            ev.push(Event::Obs { sig: Signal::WheelSpeed, t: t + 0.05, v: 5.0 });
+        }
+        Replay::new(std::path::Path::new("x.csv"), Format::DriveCsv, ev, 0)
+    }
+
+    /// A second 1 Hz receiver steps on the same GNSS second as the first: beside a 1 Hz
+    /// receiver on a logger whose clock drifts against GNSS time (css_canedge's: 0.1 s in 45
+    /// minutes, fixes stamped 180.9999999 s, then 181.0 s, then 181.1 s) its velocity is `lag`
+    /// late at every fix, never a second more where a stamp falls just short of a whole second
+    /// of the logger's clock; beside a 10 Hz receiver it is held, `lag` to `lag` + 0.9 s late.
+    #[test]
+    fn a_second_receivers_lag_does_not_step_with_the_loggers_clock() {
+        let lag = 1.3;
+        let ages = |r: &Replay| -> Vec<f64> {
+            let d = apply(r, &Nuisance { vel_1hz_lag_s: Some(lag), ..Default::default() }, 1);
+            d.fixes().map(|f| f.t - (f.speed_mps.unwrap_or(0.0) as f64 - 5.0) / 0.1).collect()
+        };
+        let one = ages(&ramp(1.0, 300));
+        assert!(one.len() > 290);
+        for (i, a) in one.iter().enumerate() {
+            assert!((a - lag).abs() < 1e-3, "fix {i}: the velocity is {a:.3} s late, not {lag} s");
+        }
+        let ten = ages(&ramp(0.1, 3000));
+        assert!(ten.len() > 2900 && ten.iter().all(|a| *a > lag - 1e-3 && *a < lag + 0.9 + 2e-3));
+        assert!(ten.iter().any(|a| *a < lag + 0.01) && ten.iter().any(|a| *a > lag + 0.89));
     }
 
     #[test]
