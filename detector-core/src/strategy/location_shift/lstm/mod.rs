@@ -6,7 +6,7 @@
 //!
 //! | input | unit |
 //! |---|---|
-//! | location shift of the *previous* epoch / its duration | m/s |
+//! | location shift of the *previous* epoch / its duration (an epoch under 50 ms is added to the one before: [`inputs::MIN_RATE_DT_S`]) | m/s |
 //! | accelerator pedal at this epoch | % |
 //! | steering wheel angle at this epoch (measured, else the yaw-rate bicycle proxy) | deg |
 //! | wheel speed at this epoch | m/s |
