@@ -35,16 +35,20 @@ impl LstmInputs {
         s.dt_s.is_finite() && s.dt_s > 0.0 && s.dt_s <= self.max_dt_s
     }
 
+    /// This epoch's GNSS shift and duration (metres, seconds), where both are usable.
+    fn shift(&self, s: &Sample) -> Option<(f32, f32)> {
+        let d = s.shift_m.get().filter(|d| d.is_finite() && *d >= 0.0)?;
+        self.dt_ok(s).then_some((d, s.dt_s))
+    }
+
     /// This epoch's GNSS shift per second, the training target (and next epoch's first input).
     pub fn shift_mps(&self, s: &Sample) -> Option<f32> {
-        let d = s.shift_m.get().filter(|d| d.is_finite() && *d >= 0.0)?;
-        self.dt_ok(s).then(|| d / s.dt_s).filter(|v| v.is_finite())
+        self.shift(s).map(|(d, dt)| d / dt).filter(|v| v.is_finite())
     }
 
     /// The four inputs of this epoch, or `None` when the run breaks here. Call once per epoch.
     pub fn next(&mut self, s: &Sample) -> Option<[f32; N_IN]> {
-        let cur = s.shift_m.get().filter(|d| d.is_finite() && *d >= 0.0).filter(|_| self.dt_ok(s)).map(|d| (d, s.dt_s));
-        let cur = match (cur, self.prev_shift) {
+        let cur = match (self.shift(s), self.prev_shift) {
             (Some((d, dt)), Some((pd, pdt))) if dt < MIN_RATE_DT_S => Some((d + pd, dt + pdt)),
             (Some((_, dt)), None) if dt < MIN_RATE_DT_S => None,
             (c, _) => c,
