@@ -142,20 +142,18 @@ impl VelocityConfig {
     }
 }
 
-/// The standard normal's upper quantile: `x` with `P(Z > x) = q`, by bisection on `erfc`
-/// (computed once per configuration; Newton's method overshoots in the far tail).
+/// The standard normal's upper quantile: `x` with `P(Z > x) = q`, by the tail branch of
+/// Acklam's rational approximation of the inverse normal distribution, in f32 (computed once
+/// per configuration): within 1e-6 (relative) in the far tail where thresholds live and within
+/// 2e-4 up to `q = 0.5`. It replaced a bisection on `erfcf`, whose code cost about 900 bytes
+/// of flash for a number made once.
 pub fn upper_quantile(q: f32) -> f32 {
+    const C: [f32; 6] = [-0.007784894, -0.32239646, -2.4007583, -2.5497324, 4.3746643, 2.938164];
+    const D: [f32; 4] = [0.007784696, 0.32246712, 2.4451342, 3.7544086];
+    let horner = |c: &[f32], x: f32| c.iter().fold(0.0f32, |acc, k| acc * x + k);
     let q = if q.is_finite() { q.clamp(1e-30, 0.5) } else { 0.5 };
-    let (mut lo, mut hi) = (0.0f32, 12.0f32);
-    for _ in 0..40 {
-        let mid = 0.5 * (lo + hi);
-        if 0.5 * libm::erfcf(mid * core::f32::consts::FRAC_1_SQRT_2) > q {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
+    let t = libm::sqrtf(-2.0 * libm::logf(q));
+    -horner(&C, t) / (horner(&D, t) * t + 1.0)
 }
 
 /// One channel's state.
@@ -438,8 +436,12 @@ mod tests {
         let h = VelocityConfig::default().threshold();
         assert!((h - 4.91).abs() < 0.01, "h {h}");
         assert!((upper_quantile(0.025) - 1.96).abs() < 0.01);
-        assert!(upper_quantile(0.5).abs() < 0.01);
+        assert!(upper_quantile(0.5).abs() < 3e-4);
         assert!(upper_quantile(0.0).is_finite() && upper_quantile(f32::NAN).is_finite());
+        // Against tabulated quantiles, and the far tail where thresholds live.
+        for (q, x, tol) in [(0.3, 0.524_400_5, 1e-4), (0.1, 1.281_551_6, 1e-5), (1e-3, 3.090_232_3, 1e-6), (4.629_63e-7, 4.906_761, 1e-6), (1e-12, 7.034_484, 1e-6)] {
+            assert!((upper_quantile(q) - x).abs() < tol * x, "q {q}: {} against {x}", upper_quantile(q));
+        }
     }
 
     /// White noise of `noise` m/s, then a step of `step` from 300 s: the time to fire.
