@@ -24,7 +24,13 @@
 //! against GNSS's, with the gyro's residual bias and scale error, by a three-state Kalman filter
 //! (`rotation`) fed by each pair's course (receivers that report one) or each 10 s window's
 //! angle; the noise of each position window, `E|e|^2 = s0^2 + (k L)^2 + P L^2` with `L = |D|`,
-//! fitted robustly. The receiver's own accuracy (NMEA GST, UBX hAcc), when it reports one,
+//! fitted robustly, apart for windows driven below and above 15 m/s (town and road: over a
+//! motorway's long windows `s0` is hidden under `k L`, and one fit let it sink to its floor,
+//! so town after the motorway was judged with the motorway's noise), and for the 10 s window
+//! once more, its along-track error alone (what the velocity test's position differences sum
+//! to; without a gyro the across-track error, the DR heading being the GNSS bearing, is most
+//! of `|e|^2`).
+//! The receiver's own accuracy (NMEA GST, UBX hAcc), when it reports one,
 //! floors `s0`. All of it learns only while nothing is suspicious, within bounds and rates once
 //! calibrated, and is kept across drives as a [`calibration::Record`]. One thing is not learnt
 //! that way: a receiver that reports its velocity says how noisy its position is now (its
@@ -98,6 +104,9 @@ const GNSS_NOISE_FALL_S: f32 = 30.0;
 /// The span of a velocity pair, seconds: the receiver's velocity against the DR's over this
 /// much centred on it, or both displacements over this much.
 const PAIR_S: f32 = 1.0;
+/// The position windows' noise is learnt apart below and above this speed over the window, m/s
+/// (town and road: see `NoiseFits`).
+const NOISE_SPLIT_MPS: f32 = 15.0;
 /// Velocity pairs judged per epoch at most (a backlog, see `next_pair`, is caught up), and
 /// how far behind the newest ready entry a pair may be, seconds (older ones are skipped).
 const PAIRS_PER_EPOCH: usize = 2;
@@ -149,6 +158,57 @@ impl NoiseFit {
     }
 }
 
+/// One window's noise fit, kept three ways: the windows driven slower than
+/// [`NOISE_SPLIT_MPS`] (town), the faster ones (road), and all of them. Over long windows (the
+/// motorway) `s0` is hidden under `k L`, so the fit of all let it sink to its floor within
+/// minutes, and town after the motorway was judged with the motorway's `s0` (sddi_commuter:
+/// 4.1 m in town, 1.0 m after fifteen minutes at 30 m/s). The two parts forget only as they
+/// learn, and their line goes through the town's mean and the road's, so `s0` is the town's
+/// until town teaches again. The noise is the larger of that line and the fit of all, parameter
+/// by parameter: where the road's windows say more about the ends than the town's (css_canedge
+/// under GNSS noise, its town windows learnt minutes before), that stays.
+#[derive(Clone, Copy, Debug, Default)]
+struct NoiseFits {
+    fits: [NoiseFit; 3],
+    /// `(s0^2, k^2)` as of the last `add` (read several times an epoch, changed at most once).
+    params: (f32, f32),
+}
+
+impl NoiseFits {
+    /// One window's error `y` (m^2) at `x = L^2`; `floors` are `s0`'s and `k`'s.
+    #[allow(clippy::too_many_arguments)]
+    fn add(&mut self, split: f32, x: f32, y: f32, secs: f32, w: f32, keep: f32, floors: (f32, f32)) {
+        if let Some(f) = self.fits.get_mut(usize::from(x >= split * split)) {
+            f.add(x, y, secs, w, keep);
+        }
+        self.fits[2].add(x, y, secs, w, keep);
+        let [town, road, all] = self.fits;
+        // The parts' line: through both parts' means where both have data (the road's many
+        // windows must not pull `s0`, which only the town's show, toward its floor), else the
+        // one part's own fit.
+        let (f0, f1) = (floors.0 * floors.0, floors.1 * floors.1);
+        let parts = if town.w > 1e-9 && road.w > 1e-9 {
+            let (xt, yt, xr, yr) = (town.x / town.w, town.y / town.w, road.x / road.w, road.y / road.w);
+            let k2 = if xr - xt > 1e-3 { (yr - yt) / (xr - xt) } else { 0.0 };
+            let k2 = k2.max(f1);
+            ((yt - k2 * xt).max(f0), k2)
+        } else if town.w > 1e-9 {
+            town.params(floors.0, floors.1)
+        } else {
+            road.params(floors.0, floors.1)
+        };
+        let whole = all.params(floors.0, floors.1);
+        self.params = (parts.0.max(whole.0), parts.1.max(whole.1));
+    }
+    fn secs(&self) -> f32 {
+        self.fits[2].secs
+    }
+    /// (s0^2, k^2), floored: the larger of the two parts' fit and the fit of all.
+    fn params(&self) -> (f32, f32) {
+        self.params
+    }
+}
+
 /// What the check kept of the previous epoch.
 #[derive(Clone, Copy, Debug)]
 struct Last {
@@ -164,6 +224,8 @@ struct Window {
     g: (f32, f32),
     d: (f32, f32),
     l: f32,
+    /// The window's error `G - s e^{i theta} D`, and its squared length.
+    e: (f32, f32),
     e2: f32,
     /// The learnt noise, and with the rotation's uncertainty (and a bridged gap's).
     var0: f32,
@@ -241,7 +303,13 @@ pub struct TrackCheck {
     bias_weight: f32,
     rot: Rotation,
     cal: Calibration,
-    noise: [NoiseFit; 2],
+    noise: [NoiseFits; 2],
+    /// The 10 s window's along-track error alone (what the velocity test's position
+    /// differences sum to over its 10 s window): without a gyro the DR's direction is the GNSS
+    /// bearing of the last metres and the across-track error is most of `|e|^2`. (The 30 and
+    /// 60 s windows keep the 30 s window's whole error: with its along-track part alone, GNSS
+    /// noise of 7.9 m correlated over 26 s fired the 60 s window in the nuisance suite.)
+    noise_along: NoiseFits,
     learnt_s: f32,
     /// The quiet velocity noise (along, across), averaged while calm: the record's.
     quiet_sigma: [f32; 2],
@@ -306,7 +374,8 @@ impl TrackCheck {
             bias_weight: 0.0,
             rot: Rotation::new(&cfg),
             cal: Calibration::new(cfg.cal),
-            noise: [NoiseFit::default(); 2],
+            noise: [NoiseFits::default(); 2],
+            noise_along: NoiseFits::default(),
             learnt_s: 0.0,
             unjudged_s: 0.0,
             stored: None,
@@ -337,14 +406,18 @@ impl TrackCheck {
         if libm::fabsf(r.nominal_dt_s - self.cfg_dt()) < 0.5 * r.nominal_dt_s {
             self.vel.set_sigma(r.velocity_sigma_mps);
             self.quiet_sigma = self.vel.sigma();
-            for (wi, nf) in self.noise.iter_mut().enumerate() {
+            let floors = (self.cfg.s0_floor_m, self.cfg.k_floor);
+            for (wi, nf) in self.noise.iter_mut().chain(core::iter::once(&mut self.noise_along)).enumerate() {
+                // The along-track fit (the third) starts from the 10 s window's whole error.
+                let wi = wi % 2;
                 let (s0, k) = (r.noise_s0_m.get(wi).copied().unwrap_or(1.0), r.noise_k.get(wi).copied().unwrap_or(0.01));
                 // Worth the prior's weight of a window's data at zero distance and 150 m.
                 let secs = self.cfg.prior_weight_s;
                 let v0 = s0 * s0;
                 let v1 = v0 + k * k * 150.0 * 150.0;
-                nf.add(0.0, v0, 0.5 * secs, 0.5 * secs / (v0 * v0).max(1e-6), 1.0);
-                nf.add(150.0 * 150.0, v1, 0.5 * secs, 0.5 * secs / (v1 * v1).max(1e-6), 1.0);
+                let split = NOISE_SPLIT_MPS * WINDOWS_S.get(wi).copied().unwrap_or(10.0);
+                nf.add(split, 0.0, v0, 0.5 * secs, 0.5 * secs / (v0 * v0).max(1e-6), 1.0, floors);
+                nf.add(split, 150.0 * 150.0, v1, 0.5 * secs, 0.5 * secs / (v1 * v1).max(1e-6), 1.0, floors);
             }
             self.learnt_s = self.cfg.warmup_s;
         }
@@ -388,15 +461,25 @@ impl TrackCheck {
     /// The noise of window `wi`, `(s0^2, k^2)`: the car's own fit, blended with the receiver
     /// profile's prior while the fit has little data.
     fn noise_params(&self, wi: usize) -> (f32, f32) {
+        self.fit_params(self.noise.get(wi))
+    }
+
+    /// The 10 s window's along-track noise, `(s0^2, k^2)` (the same prior: the receiver's stated
+    /// accuracy, both axes).
+    fn noise_params_along(&self) -> (f32, f32) {
+        self.fit_params(Some(&self.noise_along))
+    }
+
+    fn fit_params(&self, nf: Option<&NoiseFits>) -> (f32, f32) {
         let c = self.cfg;
         let prior = (2.0 * c.s0_prior_m * c.s0_prior_m, c.k_prior * c.k_prior);
-        let Some(nf) = self.noise.get(wi) else { return prior };
+        let Some(nf) = nf else { return prior };
         let w_p = c.prior_weight_s * libm::expf(-self.learnt_s / c.prior_weight_s.max(1.0));
-        let w_d = nf.secs.max(0.0);
+        let w_d = nf.secs().max(0.0);
         if w_d <= 0.0 {
             return prior;
         }
-        let (s2, k2) = nf.params(c.s0_floor_m, c.k_floor);
+        let (s2, k2) = nf.params();
         let a = w_p / (w_p + w_d);
         (a * prior.0 + (1.0 - a) * s2, a * prior.1 + (1.0 - a) * k2)
     }
@@ -435,7 +518,8 @@ impl TrackCheck {
         self.bias_weight = 0.0;
         self.rot = Rotation::new(&cfg);
         self.cal = Calibration::new(cfg.cal);
-        self.noise = [NoiseFit::default(); 2];
+        self.noise = [NoiseFits::default(); 2];
+        self.noise_along = NoiseFits::default();
         self.learnt_s = 0.0;
         self.load_stored();
     }
@@ -750,7 +834,8 @@ impl TrackCheck {
         let d = sub(self.dr_at(t_end - tau, t)?.d, self.hist.at(ts - tau)?.d);
         let extra = (self.dr_var - start.u).max(0.0);
         let l = libm::sqrtf(norm2(d));
-        let e2 = norm2(sub(g, cmul(self.gain(), d)));
+        let e = sub(g, cmul(self.gain(), d));
+        let e2 = norm2(e);
         let (s2, k2) = self.noise_params(wi);
         let var0 = s2.max(gnss_acc_var) + k2 * l * l;
         // The GNSS's own noise where it is above what was learnt (see `gnss_noise`).
@@ -764,7 +849,7 @@ impl TrackCheck {
         // position took two more history searches per epoch and changed no figure of `eval`
         // (3 of 817 scenarios' verdict streams).
         let gnss_e2 = if wi == 1 && ts >= self.vi_since { norm2(sub(g, sub(end.vi, start.vi))) } else { f32::NAN };
-        Some(Window { g, d, l, e2, var0, var, bridged: extra > 0.0, z, gnss_e2 })
+        Some(Window { g, d, l, e, e2, var0, var, bridged: extra > 0.0, z, gnss_e2 })
     }
 
     /// The velocity pair of history entry `e`, the DR's velocity taken `tau` earlier: the
@@ -863,7 +948,7 @@ impl TrackCheck {
         // The position windows' learnt noise (10 s, and 30 s once a pair needs it): read once
         // per epoch, not per pair and window (nothing below changes it before `learn`).
         let noise0 = self.noise_params(0);
-        let mut noise1 = None;
+        let (mut noise1, mut along0) = (None, None);
         let mut vel: Option<(Pair, VelocityOutcome)> = None;
         // A wheel speed rounded to its resolution `q` is off by up to `q / 2` (uniform: variance
         // `q^2 / 12`) for as long as the speed holds: an along-track error a window shares.
@@ -876,20 +961,19 @@ impl TrackCheck {
             let Some(p) = (if c.velocity.enabled { self.next_pair(t) } else { None }) else { break };
             let r = self.residuals(&p, rounding);
             // A position difference's window carries its ends' error: the learnt noise of the
-            // position window of its length (the 30 s one's for the longer: the receiver's
-            // wander is correlated over tens of seconds, so a 10 s window's noise understates
-            // a minute's) at the distance it covers (without a gyro the fit puts the
-            // receiver's along-track wander into `k`), floored by the receiver's own accuracy.
-            let mut end_var = [0.0f32; velocity::WINDOWS];
-            if !p.reported {
-                let sp = libm::sqrtf(norm2(p.d));
-                for (e, win) in end_var.iter_mut().zip(velocity::WINDOWS_S) {
-                    let (s2, k2) = if win <= WINDOWS_S[0] { noise0 } else { *noise1.get_or_insert_with(|| self.noise_params(1)) };
-                    let l = sp * win;
-                    *e = s2.max(acc) + k2 * l * l;
+            // position window of its length (the 10 s one's along-track part; the 30 s one's
+            // whole error for the longer: the receiver's wander is correlated over tens of
+            // seconds, so a 10 s window's noise understates a minute's) at the distance its
+            // pairs covered, floored by the receiver's own accuracy.
+            let ends = (!p.reported).then(|| {
+                let mut noise = [(0.0f32, 0.0f32); velocity::WINDOWS];
+                for (e, win) in noise.iter_mut().zip(velocity::WINDOWS_S) {
+                    let (s2, k2) = if win <= WINDOWS_S[0] { *along0.get_or_insert_with(|| self.noise_params_along()) } else { *noise1.get_or_insert_with(|| self.noise_params(1)) };
+                    *e = (s2.max(acc), k2);
                 }
-            }
-            let mut o = self.vel.observe(p.t, r, end_var);
+                velocity::Ends { noise, dist_m: libm::sqrtf(norm2(p.d)) }
+            });
+            let mut o = self.vel.observe(p.t, r, ends);
             // An earlier pair of this epoch that fired or raised suspicion still counts.
             if let Some((_, prev)) = vel {
                 for (f, pf) in o.fired.iter_mut().zip(prev.fired) {
@@ -1009,16 +1093,27 @@ impl TrackCheck {
         let c = self.cfg;
         let keep = libm::expf(-dt / self.learn_tau());
         let aligned = self.aligned_frame();
+        let floors = (c.s0_floor_m, c.k_floor);
+        let reported = self.hist.back().is_some_and(Entry::has_velocity);
         // The noise of each window (the rotation's uncertainty taken out), only in an aligned
         // frame.
         for (wi, w) in wins.iter().enumerate() {
-            let (Some(w), Some(nf)) = (w, self.noise.get_mut(wi)) else { continue };
+            let Some(w) = w else { continue };
             let win = WINDOWS_S.get(wi).copied().unwrap_or(10.0);
             if aligned && !w.bridged && w.l >= c.judge_dist_m(win) {
                 let excess = (w.var - w.var0).max(0.0);
                 let y = (w.e2 - excess).max(0.0).min(9.0 * w.var0);
                 let weight = dt / (w.var0 * w.var0).max(1e-6);
-                nf.add(w.l * w.l, y, dt, weight, keep);
+                let split = NOISE_SPLIT_MPS * win;
+                if let Some(nf) = self.noise.get_mut(wi) {
+                    nf.add(split, w.l * w.l, y, dt, weight, keep, floors);
+                }
+                // The 10 s window's along-track part, for the velocity test's position
+                // differences (only a receiver that reports no velocity has them).
+                if wi == 0 && !reported {
+                    let along = (w.e.0 * w.d.0 + w.e.1 * w.d.1) / w.l;
+                    self.noise_along.add(split, w.l * w.l, (along * along).min(9.0 * w.var0), dt, weight, keep, floors);
+                }
             }
         }
         if aligned {
@@ -1131,5 +1226,35 @@ impl TrackCheck {
             return Some(libm::atan2f(d.1, d.0));
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Twenty minutes of town (10 s windows over 60 to 100 m, 4 m of GNSS noise at the ends),
+    /// then an hour of motorway (250 to 350 m, where the error grows as 1.5 % of the distance
+    /// and no `s0` shows under it): the motorway cannot tell `s0`, so it must not teach the
+    /// town's away. One fit for both (the old way) let it sink to its floor.
+    #[test]
+    fn the_motorway_does_not_overwrite_what_town_taught() {
+        let (mut one, mut parts) = (NoiseFit::default(), NoiseFits::default());
+        let split = NOISE_SPLIT_MPS * WINDOWS_S[0];
+        let keep = libm::expf(-1.0 / 300.0);
+        for i in 0..4800 {
+            let l = if i < 1200 { 60.0 + (i % 5) as f32 * 10.0 } else { 250.0 + (i % 11) as f32 * 10.0 };
+            let y = if i < 1200 { 16.0 + 1e-4 * l * l } else { 0.015 * 0.015 * l * l };
+            let w = 1.0 / (y * y);
+            one.add(l * l, y, 1.0, w, keep);
+            parts.add(split, l * l, y, 1.0, w, keep, (1.0, 0.01));
+        }
+        let (s2_one, _) = one.params(1.0, 0.01);
+        let (s2, k2) = parts.params();
+        assert!(s2_one <= 1.0 + 1e-3, "one fit: s0 {} (the test's premise)", libm::sqrtf(s2_one));
+        assert!(libm::sqrtf(s2) > 3.0, "s0 after the motorway {}, k {}", libm::sqrtf(s2), libm::sqrtf(k2));
+        // And the motorway's own error is not understated: the model at 300 m against its 4.5 m.
+        let road = s2 + k2 * 300.0 * 300.0;
+        assert!(road >= 0.9 * 4.5 * 4.5, "{} m at 300 m", libm::sqrtf(road));
     }
 }
