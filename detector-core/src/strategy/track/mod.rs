@@ -971,7 +971,7 @@ impl TrackCheck {
                     let (s2, k2) = if win <= WINDOWS_S[0] { *along0.get_or_insert_with(|| self.noise_params_along()) } else { *noise1.get_or_insert_with(|| self.noise_params(1)) };
                     *e = (s2.max(acc), k2);
                 }
-                velocity::Ends { noise, dist_m: libm::sqrtf(norm2(p.d)) }
+                velocity::Ends { noise, speed_mps: libm::sqrtf(norm2(p.d)) }
             });
             let mut o = self.vel.observe(p.t, r, ends);
             // An earlier pair of this epoch that fired or raised suspicion still counts.

@@ -183,8 +183,8 @@ struct Bin {
 pub struct Ends {
     /// Per window, `(s0^2, k^2)`.
     pub noise: [(f32, f32); WINDOWS],
-    /// The pair's speed, m/s (its distance per second of weight).
-    pub dist_m: f32,
+    /// The pair's speed, m/s: the metres it covers per second of weight.
+    pub speed_mps: f32,
 }
 
 /// One channel's state.
@@ -396,7 +396,8 @@ impl VelocityTest {
     /// and the prediction's own variance ((m/s)^2), `None` where that channel is not judged.
     ///
     /// `ends`: where the pairs are position differences, the noise of a window's two ends and
-    /// the distance this pair covered, metres (see the module documentation, "The statistic");
+    /// the pair's speed, whose metres each bin keeps (see the module documentation, "The
+    /// statistic");
     /// `None` when the receiver reports its velocity.
     pub fn observe(&mut self, t: f32, pairs: [Option<(f32, f32)>; 2], ends: Option<Ends>) -> VelocityOutcome {
         let cfg = self.cfg;
@@ -423,7 +424,7 @@ impl VelocityTest {
                 b.zw += zc * w;
                 b.w += w;
                 b.iw += w / sd.max(1e-6);
-                b.dist += ends.map_or(0.0, |e| e.dist_m.max(0.0) * w);
+                b.dist += ends.map_or(0.0, |e| e.speed_mps.max(0.0) * w);
             }
             ch.gross_run = if libm::fabsf(z) > cfg.gross && libm::fabsf(r) > cfg.gross_mps {
                 match ch.gross_run {
@@ -548,7 +549,7 @@ mod tests {
         let mut v = VelocityTest::new(VelocityConfig::default());
         v.set_sigma([0.2, 0.2]);
         // 5 m at each end (25 m^2), whatever the distance.
-        let ends = Some(Ends { noise: [(25.0, 0.0); WINDOWS], dist_m: 10.0 });
+        let ends = Some(Ends { noise: [(25.0, 0.0); WINDOWS], speed_mps: 10.0 });
         let mut before = 0.0;
         for k in 0..40 {
             // A residual of 0.3 m/s, alternating by 0.05 so the noise stays near 0.2.
@@ -575,11 +576,11 @@ mod tests {
         let mut before = 0.0;
         for k in 0..60 {
             let r = 0.4 + if k % 2 == 0 { 0.1 } else { -0.1 };
-            before = v.observe(k as f32, [Some((r, 0.0)), None], Some(Ends { noise, dist_m: 25.0 })).t_windows[ALONG][2];
+            before = v.observe(k as f32, [Some((r, 0.0)), None], Some(Ends { noise, speed_mps: 25.0 })).t_windows[ALONG][2];
         }
         let mut after = 0.0f32;
         for k in 60..66 {
-            after = after.max(v.observe(k as f32, [Some((0.0, 0.0)), None], Some(Ends { noise, dist_m: 3.0 })).t_windows[ALONG][2]);
+            after = after.max(v.observe(k as f32, [Some((0.0, 0.0)), None], Some(Ends { noise, speed_mps: 3.0 })).t_windows[ALONG][2]);
         }
         assert!(before > 1.0, "T {before}");
         assert!(after <= before * 1.05, "T {before} -> {after} at a crawl, no new evidence");
@@ -643,7 +644,7 @@ mod tests {
     fn hostile_numbers_end_every_step() {
         let mut v = VelocityTest::new(VelocityConfig::default());
         for (k, x) in [f32::NAN, f32::INFINITY, 1e30, -1e30, f32::MAX, 0.0].iter().enumerate() {
-            let _ = v.observe(k as f32, [Some((*x, *x)), Some((*x, 0.0))], Some(Ends { noise: [(*x, *x); WINDOWS], dist_m: *x }));
+            let _ = v.observe(k as f32, [Some((*x, *x)), Some((*x, 0.0))], Some(Ends { noise: [(*x, *x); WINDOWS], speed_mps: *x }));
             let _ = v.observe(*x, [Some((1.0, 0.0)), None], None);
         }
     }
