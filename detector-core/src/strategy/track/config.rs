@@ -40,9 +40,15 @@ pub struct TrackConfig {
     pub fast_persist_s: f32,
     /// The windows do not judge when they cannot see a drift slower than this within 10 s, m/s.
     pub max_bound_mps: f32,
-    /// Random walk of the DR frame's rotation (gyro noise, scale error in turns), deg^2/s.
+    /// Random walk of the DR frame's rotation (gyro noise, scale error in turns), deg^2/s:
+    /// how fast the frame may turn against GNSS, so how fast a spoofer's course step is taken
+    /// as rotation. 0.001 is an angle random walk of 1.9 deg/sqrt(h), several times an
+    /// automotive yaw-rate sensor's. 0.01 (before) took 1.2 deg of a 2.3 deg step (a drift
+    /// across the road at 1 m/s on css_canedge) within 6 s.
     pub q_rotation: f32,
-    /// Random walk of the gyro's residual bias, (deg/s)^2/s.
+    /// Random walk of the gyro's residual bias, (deg/s)^2/s: 3e-6 lets it move by 0.04 deg/s in
+    /// ten minutes. css_canedge's gyro needs it: at 3e-7 the nuisance suite (seed 1) raised
+    /// 207 false alarms; 1e-5 (before) let a course step be taken as bias within seconds.
     pub q_bias: f32,
     /// Uncertainty of the frame's alignment from the GNSS heading after a (re)start, deg.
     pub align_sd_deg: f32,
@@ -68,7 +74,8 @@ pub struct TrackConfig {
 impl TrackConfig {
     /// The configuration for a receiver profile: its stated accuracy as the prior. The
     /// process noises are a MEMS gyro's (angle random walk and bias instability of automotive
-    /// yaw-rate sensors, with margin), not fitted on any drive.
+    /// yaw-rate sensors, with margin); the bias's was checked against css_canedge's gyro (see
+    /// `q_bias`).
     pub fn for_profile(p: &ReceiverProfile) -> Self {
         TrackConfig {
             enabled: true,
@@ -84,8 +91,8 @@ impl TrackConfig {
             persist_s: 10.0,
             fast_persist_s: 3.0,
             max_bound_mps: 5.0,
-            q_rotation: 0.01,
-            q_bias: 1.0e-5,
+            q_rotation: 0.001,
+            q_bias: 3.0e-6,
             align_sd_deg: 20.0,
             bias_sd_degps: 0.5,
             gyro_scale_sd: 0.05,
