@@ -38,7 +38,8 @@
 //! `c mean(1/sd)^2` under the root: no window averages it away. With
 //! `N = 2 sum_W 3600 / W` tests per hour (both channels), a budget of `B` false alarms per hour
 //! gives the threshold `h = Phi^-1(1 - B / 2N)`. A window fires once it has stayed above `h` for
-//! [`VelocityConfig::persist_s`] (the banks of finite cumulative monitors of Quartararo &
+//! [`VelocityConfig::persist_s`] (position differences: [`VelocityConfig::persist_position_s`],
+//! their residual is correlated over less time) (the banks of finite cumulative monitors of Quartararo &
 //! Langel, NAVIGATION 2022, in their simplest form); pairs beyond [`VelocityConfig::gross`] in
 //! the same direction for [`VelocityConfig::gross_s`] fire at once (a drift of metres per
 //! second). Every fix is judged, oldest first, once the DR's velocity at the learnt delay is
@@ -100,8 +101,14 @@ pub struct VelocityConfig {
     /// under a timing nuisance; 3 s: slower; see docs/evaluation.md).
     pub gross_s: f32,
     /// A window fires once its statistic has stayed above the threshold this long, seconds
-    /// (a single epoch's excursion does not).
+    /// (a single epoch's excursion does not), where the receiver reports its velocity (its
+    /// residual correlated over `kappa_s`, with excursions of seconds).
     pub persist_s: f32,
+    /// The same for position differences, correlated over `kappa_position_s` only: 1 s, two
+    /// fixes in a row at 1 Hz. (2 s held the 1 Hz position-only receivers' small biases past
+    /// 10 s; 1 s for a receiver's own velocity too fired css_canedge under a 1 Hz speed and
+    /// course 0.5 s late, twice over seeds 2 to 42.)
+    pub persist_position_s: f32,
     /// The share of `h` above which evidence is accumulating (the calibration freezes).
     pub freeze: f32,
     /// Along-track pairs are judged above this speed, across-track ones above the second, m/s.
@@ -131,6 +138,7 @@ impl Default for VelocityConfig {
             gross_mps: 2.0,
             gross_s: 2.0,
             persist_s: 2.0,
+            persist_position_s: 1.0,
             freeze: 0.5,
             min_speed_mps: 3.0,
             min_speed_across_mps: 5.0,
@@ -453,7 +461,7 @@ impl VelocityTest {
             };
             if let (Some(o), Some(f), Some(s)) = (out.t.get_mut(k), out.fired.get_mut(k), out.sigma_mps.get_mut(k)) {
                 *o = t_w;
-                *f = held >= cfg.persist_s || gross;
+                *f = held >= if ends.is_some() { cfg.persist_position_s } else { cfg.persist_s } || gross;
                 *s = ch.sigma;
             }
             out.suspicious |= t_w > cfg.freeze * h || gross;
