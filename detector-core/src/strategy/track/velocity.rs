@@ -38,9 +38,10 @@
 //! `c mean(1/sd)^2` under the root: no window averages it away. With
 //! `N = 2 sum_W 3600 / W` tests per hour (both channels), a budget of `B` false alarms per hour
 //! gives the threshold `h = Phi^-1(1 - B / 2N)`. A window fires once it has stayed above `h` for
-//! [`VelocityConfig::persist_s`] (position differences: [`VelocityConfig::persist_position_s`],
-//! their residual is correlated over less time) (the banks of finite cumulative monitors of Quartararo &
-//! Langel, NAVIGATION 2022, in their simplest form); pairs beyond [`VelocityConfig::gross`] in
+//! [`VelocityConfig::persist_s`], or [`VelocityConfig::persist_position_s`] for position
+//! differences, whose residual is correlated over less time (the banks of finite cumulative
+//! monitors of Quartararo & Langel, NAVIGATION 2022, in their simplest form); pairs beyond
+//! [`VelocityConfig::gross`] in
 //! the same direction for [`VelocityConfig::gross_s`] fire at once (a drift of metres per
 //! second). Every fix is judged, oldest first, once the DR's velocity at the learnt delay is
 //! known for it (none is skipped when the vehicle signals are late).
@@ -646,6 +647,34 @@ mod tests {
         assert_eq!(run(0.2, rounding), None);
         assert_eq!(run(-0.25, rounding), None);
         assert!(run(0.5, rounding).is_some_and(|k| k <= 60), "{:?}", run(0.5, rounding));
+    }
+
+    /// A window fires once its statistic has held above `h` for `persist_position_s` (1 s: two
+    /// fixes in a row at 1 Hz) where the pairs are position differences, for `persist_s` (2 s)
+    /// where the receiver reports its velocity.
+    #[test]
+    fn position_differences_fire_after_a_shorter_persistence() {
+        let held = |ends: Option<Ends>| {
+            let mut v = VelocityTest::new(VelocityConfig::default());
+            v.set_sigma([0.5, 0.5]);
+            let mut above = None;
+            for k in 0..120 {
+                // Alternating by 0.1 m/s around a residual of 0.6 m/s from 60 s on.
+                let r = if k >= 60 { 0.6 } else { 0.0 } + if k % 2 == 0 { 0.1 } else { -0.1 };
+                let o = v.observe(k as f32, [Some((r, 0.0)), None], ends);
+                if o.t[ALONG] > o.h && above.is_none() {
+                    above = Some(k);
+                }
+                if o.fired[ALONG] {
+                    return above.map(|a| k - a);
+                }
+            }
+            None
+        };
+        // 1 m at each end: the ends' error does not hide 0.6 m/s.
+        let ends = Some(Ends { noise: [(1.0, 0.0); WINDOWS], speed_mps: 10.0 });
+        assert_eq!(held(ends), Some(1));
+        assert_eq!(held(None), Some(2));
     }
 
     #[test]
