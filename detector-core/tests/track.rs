@@ -438,7 +438,9 @@ fn a_course_excursion_right_after_an_outage_does_not_turn_the_frame() {
     // 12 s; a gyro's noise and bias instability do not do that, a scale error in a turn in the
     // gap can): the frame follows part of it at once, the rest once the across-track evidence
     // has cleared, and nothing fires. (Before the frame's rates were a gyro's it followed all
-    // 3 deg within seconds, as it did a spoofer's course step.)
+    // 3 deg within seconds, as it did a spoofer's course step. This test's case before, a
+    // receiver whose course stays 3 deg off its own positions after the outage, now fires after
+    // about 100 s: no gyro drifts so, and nothing here tells such a receiver from a spoofer.)
     let err = |t: f64| if (700.0..712.0).contains(&t) { 0.25 } else { 0.0 };
     let o = run(&drive(&Car { gyro_off: err, course_off: |_| 0.0, ..car }, 900.0, 13));
     assert!(fired(&o).is_empty(), "fired at {:?}", fired(&o));
