@@ -36,6 +36,8 @@ pub struct Turn {
     pub label: TurnClass,
     pub query: [f32; QUERY_LEN],
     pub t: f64,
+    /// The GNSS course change the label was read from, degrees (+ = right).
+    pub gnss_change_deg: f32,
 }
 
 pub fn provenance_of(d: &Drive) -> Option<Provenance> {
@@ -71,7 +73,7 @@ pub fn collect(d: &Drive) -> Vec<Turn> {
             } else {
                 continue;
             };
-            out.push(Turn { drive: d.name.clone(), provenance, label, query: o.query, t: o.start_t });
+            out.push(Turn { drive: d.name.clone(), provenance, label, query: o.query, t: o.start_t, gnss_change_deg: o.gnss_change_deg });
         }
     }
     out
@@ -147,6 +149,21 @@ pub struct ProvStats {
     pub ci95_high: f64,
 }
 
+/// A held-out segment the classifier read otherwise than its label.
+#[derive(Clone, Debug, Serialize)]
+pub struct TurnMiss {
+    pub drive: String,
+    /// The segment's start, seconds on the drive's clock.
+    pub t: f64,
+    pub provenance: &'static str,
+    pub label: &'static str,
+    pub predicted: &'static str,
+    /// The GNSS course change the label was read from, degrees (+ = right).
+    pub gnss_change_deg: f32,
+    /// The largest steering wheel angle of the segment's query, degrees (+ = left).
+    pub steering_peak_deg: f32,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct TurnReport {
     pub train_turns: usize,
@@ -162,6 +179,8 @@ pub struct TurnReport {
     /// confusion[true][predicted], classes none/left/right.
     pub confusion: BTreeMap<&'static str, BTreeMap<&'static str, usize>>,
     pub by_provenance: BTreeMap<&'static str, ProvStats>,
+    /// Every held-out segment read otherwise than its label.
+    pub misses: Vec<TurnMiss>,
     /// The pruned classifier gave the reference's label and distance on every held-out query.
     pub exact: bool,
     pub exact_checked: usize,
@@ -187,6 +206,7 @@ pub fn evaluate(blob: &[u8], train_turns: usize, test: &[Turn], k: usize) -> Tur
     let mut conf = [[0usize; 3]; 3];
     let mut exact = true;
     let mut prov: BTreeMap<&'static str, (usize, usize)> = BTreeMap::new();
+    let mut misses = Vec::new();
     let t0 = std::time::Instant::now();
     let preds: Vec<_> = test.iter().map(|t| turn::classify(&set, &t.query, k)).collect();
     let pruned_us = t0.elapsed().as_secs_f64() * 1e6 / test.len().max(1) as f64;
@@ -197,6 +217,10 @@ pub fn evaluate(blob: &[u8], train_turns: usize, test: &[Turn], k: usize) -> Tur
         let pc = p.map_or(TurnClass::None, |n| n.class);
         exact &= p.map(|n| (n.class, n.distance)) == r.map(|n| (n.class, n.distance));
         conf[t.label as usize][pc as usize] += 1;
+        if pc != t.label {
+            let peak = t.query.iter().fold(0.0f32, |a, q| if q.abs() > a.abs() { *q } else { a });
+            misses.push(TurnMiss { drive: t.drive.clone(), t: t.t, provenance: t.provenance.name(), label: t.label.name(), predicted: pc.name(), gnss_change_deg: t.gnss_change_deg, steering_peak_deg: peak });
+        }
         let e = prov.entry(t.provenance.name()).or_default();
         e.0 += 1;
         e.1 += usize::from(pc == t.label);
@@ -230,6 +254,7 @@ pub fn evaluate(blob: &[u8], train_turns: usize, test: &[Turn], k: usize) -> Tur
             let (lo, hi) = clopper_pearson(c, n);
             (k, ProvStats { n, accuracy: c as f64 / n.max(1) as f64, ci95_low: lo, ci95_high: hi })
         }).collect(),
+        misses,
         exact,
         exact_checked: n,
         us_per_query_pruned: pruned_us,
@@ -280,7 +305,7 @@ mod tests {
             let x = k as f32 / (QUERY_LEN - 1) as f32;
             *q = peak * (std::f32::consts::PI * x).sin() + phase * (7.0 * x).sin();
         }
-        Turn { drive: "d".into(), provenance: Provenance::Measured, label, query, t: 0.0 }
+        Turn { drive: "d".into(), provenance: Provenance::Measured, label, query, t: 0.0, gnss_change_deg: 0.0 }
     }
 
     #[test]
