@@ -331,4 +331,25 @@ mod tests {
         let unedited = TemplateSet::parse(&buf[..n]).unwrap();
         assert_eq!(turn::classify(&unedited, &q, 1).map(|n| n.class), Some(TurnClass::None));
     }
+
+    /// The report lists every held-out segment read otherwise than its label, with the GNSS
+    /// course change its label came from and the steering's peak (signed), and nothing else.
+    #[test]
+    fn the_report_lists_the_segments_read_otherwise_than_their_label() {
+        let mut train: Vec<Turn> = (0..4).map(|k| turn(TurnClass::Right, -70.0 - 5.0 * k as f32, k as f32)).collect();
+        train.extend((0..4).map(|k| turn(TurnClass::Left, 70.0 + 5.0 * k as f32, k as f32)));
+        let blob = select(&train, 1);
+        let mut test = vec![turn(TurnClass::Right, -74.0, 1.0), turn(TurnClass::Left, 76.0, 2.0)];
+        // GNSS called it straight (19 deg left), its steering is a left turn's.
+        let mut straight = turn(TurnClass::None, 80.0, 0.5);
+        straight.drive = "swing".into();
+        straight.gnss_change_deg = -19.0;
+        test.push(straight);
+        let rep = evaluate(&blob, train.len(), &test, 1);
+        assert_eq!(rep.misses.len(), 1, "{:?}", rep.misses);
+        let m = &rep.misses[0];
+        assert_eq!((m.drive.as_str(), m.label, m.predicted), ("swing", "none", "left"));
+        assert_eq!(m.gnss_change_deg, -19.0);
+        assert!((m.steering_peak_deg - 80.0).abs() < 3.0, "{}", m.steering_peak_deg);
+    }
 }

@@ -105,8 +105,8 @@ pub struct VelocityConfig {
     /// come 0.99 s apart, as on the css_canedge logger), as the count of three pairs this
     /// replaces; a duration, so a 10 Hz receiver is held to the same time, not to 0.2 s.
     /// Picked among 1.5, 2 and 3 s measured on the nuisance suite and the attacks (1.5 s: two
-    /// false alarms, both the css_canedge receiver's own glitch of three fixes
-    /// under a timing nuisance; 3 s: slower; see docs/evaluation.md).
+    /// false alarms, both the css_canedge receiver's own glitch of three fixes under a timing
+    /// nuisance; 3 s: slower; see docs/evaluation.md).
     pub gross_s: f32,
     /// A window fires once its statistic has stayed above the threshold this long, seconds
     /// (a single epoch's excursion does not), where the receiver reports its velocity (its
