@@ -521,3 +521,19 @@ fn a_drift_across_the_road_is_not_learnt_as_the_frames_rotation() {
     let f = fired(&o);
     assert!(f.first().is_some_and(|t| (1245.0..=1280.0).contains(t)), "fired at {:?}", &f[..f.len().min(10)]);
 }
+
+/// A standstill measures the gyro's bias: before driving has taught the frame the bias, its
+/// uncertainty grows by the driving bias's offset from the standstill's (0.1 deg/s), not by
+/// the power-up half degree per second. The car stands for its first 20 s; its frame is
+/// aligned within the next 30 s of driving (with the power-up uncertainty: not before the gap)
+/// and a 30 s GNSS gap leaves it 4 deg uncertain (10.5 deg with the power-up uncertainty).
+#[test]
+fn a_standstill_bounds_what_the_frame_does_not_know_of_the_bias() {
+    let car = Car { gaps: vec![(50.0, 80.0)], ..Car::default() };
+    let out = run(&drive(&car, 120.0, 3));
+    let aligned = out.iter().filter(|(t, _)| *t < 50.0).any(|(_, o)| o.is_some_and(|o| o.rotation_sd_deg < 2.0));
+    let after = out.iter().find(|(t, _)| *t >= 81.0).and_then(|(_, o)| o.map(|o| o.rotation_sd_deg));
+    assert!(aligned, "the frame aligned before the gap");
+    assert!(after.is_some_and(|sd| sd < 5.0), "rotation sd after the gap {after:?}");
+    assert!(fired(&out).is_empty(), "fired at {:?}", fired(&out));
+}

@@ -402,6 +402,7 @@ impl TrackCheck {
             self.bias_weight = r.gyro_bias_weight_s.min(10.0);
         }
         self.rot = Rotation::with_scale(&self.cfg, r.gyro_scale_error, r.gyro_scale_sd);
+        self.bound_bias_by_standstill();
         // The same receiver class: its noise carries over as the prior.
         if libm::fabsf(r.nominal_dt_s - self.cfg_dt()) < 0.5 * r.nominal_dt_s {
             self.vel.set_sigma(r.velocity_sigma_mps);
@@ -579,6 +580,19 @@ impl TrackCheck {
     }
 
     /// The rotation filter of this stretch's heading source (none when GNSS is the heading).
+    /// Once standstills have measured the gyro's bias (here or on a stored drive), the
+    /// rotation filter's residual bias is the driving bias's offset from it, not the power-up
+    /// uncertainty: the frame's uncertainty then grows by that offset over a stretch without
+    /// GNSS course (a stop, a slow crawl, a gap), not by half a degree a second.
+    fn bound_bias_by_standstill(&mut self) {
+        if self.bias_weight >= rotation::STANDSTILL_MEASURED_S {
+            let sd = rotation::STANDSTILL_BIAS_SD_DEGPS.to_radians();
+            if let Some(r) = self.rot_mut() {
+                r.bound_omega_var(sd * sd);
+            }
+        }
+    }
+
     fn rot(&self) -> Option<&Rotation> {
         (self.source == Some(HeadingSource::Gyro)).then_some(&self.rot)
     }
@@ -716,6 +730,7 @@ impl TrackCheck {
             let whole = self.bias - self.rot().map_or(0.0, |r| r.omega().to_degrees());
             self.bias += (mean.clamp(-MAX_BIAS_DEGPS, MAX_BIAS_DEGPS) - whole) * k;
             self.bias = if self.bias.is_finite() { self.bias.clamp(-2.0 * MAX_BIAS_DEGPS, 2.0 * MAX_BIAS_DEGPS) } else { 0.0 };
+            self.bound_bias_by_standstill();
         }
         // The DR heading: the gyro's integral (the synchroniser's, exact at any epoch rate; else
         // a trapezoid), or the GNSS track's own bearing.

@@ -15,6 +15,13 @@ use core::f32::consts::PI;
 pub(super) const MAX_SCALE_ERROR: f32 = 0.2;
 /// The largest gyro bias believed, deg/s.
 pub(super) const MAX_BIAS_DEGPS: f32 = 2.0;
+/// How far the gyro's bias while driving is believed to lie from the bias a standstill of at
+/// least [`STANDSTILL_MEASURED_S`] measured, deg/s (css_canedge's: 0.05 deg/s between its
+/// first standstill and its first minute of driving). Before a standstill the power-up
+/// uncertainty ([`TrackConfig::bias_sd_degps`], 0.5 deg/s) holds.
+pub(super) const STANDSTILL_BIAS_SD_DEGPS: f32 = 0.1;
+/// Seconds of standstill after which the bias counts as measured.
+pub(super) const STANDSTILL_MEASURED_S: f32 = 5.0;
 /// Innovations beyond this many standard deviations count as if they lay on it (see
 /// [`Rotation::update`]).
 pub(super) const GATE_SD: f32 = 3.0;
@@ -68,6 +75,21 @@ impl Rotation {
     }
     pub(super) fn var_scale(&self) -> f32 {
         self.p[2][2].max(0.0)
+    }
+    /// A standstill has measured the gyro's bias: the residual bias's variance is at most `var`
+    /// (rad/s)^2, its correlations with the rotation and the scale kept (so `P` stays positive
+    /// semi-definite).
+    pub(super) fn bound_omega_var(&mut self, var: f32) {
+        let p = self.p[1][1];
+        if !(var > 0.0 && var.is_finite() && p > var) {
+            return;
+        }
+        let f = libm::sqrtf(var / p);
+        for j in [0, 2] {
+            self.p[1][j] *= f;
+            self.p[j][1] *= f;
+        }
+        self.p[1][1] = var;
     }
     /// A new alignment: the rotation unknown to `align_sd_deg`, drift and scale error kept.
     pub(super) fn realign(&mut self, cfg: &TrackConfig) {
@@ -155,5 +177,43 @@ impl Rotation {
         if !self.p.iter().flatten().chain(self.x.iter()).all(|v| v.is_finite()) {
             *self = Rotation::new(cfg);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::profile::LOGGER_1HZ;
+
+    /// Bounding the residual bias's variance keeps the covariance a covariance: symmetric, its
+    /// minors non-negative, the rotation's own variance unchanged.
+    #[test]
+    fn bounding_the_bias_variance_keeps_a_covariance() {
+        let cfg = TrackConfig::for_profile(&LOGGER_1HZ);
+        let mut r = Rotation::new(&cfg);
+        // Turns and time correlate the rotation with the bias and the scale.
+        for k in 0..40 {
+            r.predict(1.0, if k % 10 < 3 { 0.15 } else { 0.0 }, &cfg);
+        }
+        r.update(0.01, 1e-4, &cfg);
+        let theta = r.p[0][0];
+        let var = 0.1f32.to_radians().powi(2);
+        assert!(r.p[1][1] > var);
+        r.bound_omega_var(var);
+        assert_eq!(r.p[1][1], var);
+        assert_eq!(r.p[0][0], theta);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_eq!(r.p[i][j], r.p[j][i]);
+                assert!(r.p[i][i] * r.p[j][j] - r.p[i][j] * r.p[j][i] >= -1e-12, "minor {i}{j}");
+            }
+        }
+        let p = r.p;
+        let det = p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]);
+        assert!(det >= -1e-18, "det {det}");
+        // A larger bound changes nothing.
+        let before = r.p;
+        r.bound_omega_var(1.0);
+        assert_eq!(r.p, before);
     }
 }
