@@ -579,20 +579,20 @@ impl TrackCheck {
         self.rot().map_or(0.0, Rotation::var_theta)
     }
 
-    /// The rotation filter of this stretch's heading source (none when GNSS is the heading).
     /// Once standstills have measured the gyro's bias (here or on a stored drive), the
     /// rotation filter's residual bias is the driving bias's offset from it, not the power-up
     /// uncertainty: the frame's uncertainty then grows by that offset over a stretch without
     /// GNSS course (a stop, a slow crawl, a gap), not by half a degree a second.
     fn bound_bias_by_standstill(&mut self) {
+        // The filter itself, not `rot_mut`: a stored record is loaded before the heading's
+        // source is known.
         if self.bias_weight >= rotation::STANDSTILL_MEASURED_S {
             let sd = rotation::STANDSTILL_BIAS_SD_DEGPS.to_radians();
-            if let Some(r) = self.rot_mut() {
-                r.bound_omega_var(sd * sd);
-            }
+            self.rot.bound_omega_var(sd * sd);
         }
     }
 
+    /// The rotation filter of this stretch's heading source (none when GNSS is the heading).
     fn rot(&self) -> Option<&Rotation> {
         (self.source == Some(HeadingSource::Gyro)).then_some(&self.rot)
     }
