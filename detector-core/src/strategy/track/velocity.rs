@@ -41,9 +41,11 @@
 //! [`VelocityConfig::persist_s`], or [`VelocityConfig::persist_position_s`] for position
 //! differences, whose residual is correlated over less time (the banks of finite cumulative
 //! monitors of Quartararo & Langel, NAVIGATION 2022, in their simplest form); pairs beyond
-//! [`VelocityConfig::gross`] in the same direction for [`VelocityConfig::gross_s`] fire at once
-//! (a drift of metres per second). Every fix is judged, oldest first, once the DR's velocity at the learnt delay is
-//! known for it (none is skipped when the vehicle signals are late).
+//! [`VelocityConfig::gross`] (and beyond [`VelocityConfig::gross_mps`] along the road,
+//! [`GROSS_ACROSS_MPS`] across it) in the same direction for [`VelocityConfig::gross_s`] fire
+//! at once (a drift of metres per second). Every fix is judged, oldest first, once the DR's
+//! velocity at the learnt delay is known for it (none is skipped when the vehicle signals are
+//! late).
 //! No window is shorter than 10 s: the receivers and cars of our data disagree by 2 m/s for up
 //! to three fixes and by 0.6 m/s for up to ten seconds on their own (css_canedge: the OBD speed
 //! held for 13 s while GNSS slowed), which a shorter window cannot tell from a drift.
