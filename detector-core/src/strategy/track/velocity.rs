@@ -72,9 +72,9 @@ const BINS: usize = 64;
 /// until its residual had passed 2 m/s (within 10 s: 2 of 13; 1.5 m/s: 7 of 13).
 pub const GROSS_ACROSS_MPS: f32 = 1.5;
 /// A gross run's pairs beyond this, m/s, fire once they have lasted [`GROSS_FAST_S`] rather than
-/// [`VelocityConfig::gross_s`]: the receivers' own excursions on our drives stay under 3.1 m/s
-/// (css_canedge session 1, three fixes at 1.5 to 3.1 m/s), and a frozen position at town
-/// speeds is beyond it from its first fix.
+/// [`VelocityConfig::gross_s`]: the receivers' own excursions on our drives reach at most
+/// 3.1 m/s (css_canedge session 1, three fixes at 1.5 to 3.1 m/s), and a frozen position at
+/// town speeds is beyond it from its first fix.
 pub const GROSS_FAST_MPS: f32 = 4.0;
 /// ... for this long (first pair to last), seconds: three fixes at 1 Hz.
 pub const GROSS_FAST_S: f32 = 2.0;
@@ -217,11 +217,13 @@ pub struct Ends {
 /// A run of gross pairs in one direction.
 #[derive(Clone, Copy, Debug)]
 struct GrossRun {
-    /// The first pair's time, the direction (sign of `z`), the newest pair's time.
+    /// The first pair's time.
     since: f32,
+    /// The direction, the sign of `z`.
     sign: f32,
+    /// The newest pair's time.
     newest: f32,
-    /// Since when every pair of the run has been beyond [`GROSS_FAST_MPS`].
+    /// The first of the newest pairs that are all beyond [`GROSS_FAST_MPS`], if the newest is.
     fast_since: Option<f32>,
 }
 
