@@ -220,7 +220,7 @@ pub fn markdown(r: &Report, figures: &[String]) -> String {
             let _ = writeln!(s, "| {k} | {} | {} | {} |", row["none"], row["left"], row["right"]);
         }
         if !t.misses.is_empty() {
-            let _ = writeln!(s, "\nThe held-out segments read otherwise than their label (the label: the GNSS course change from the segment's start to its end and the late GNSS's margin after it, + = right; a turn beyond 45 deg, straight under 20 deg):\n\n| drive | start (s) | steering | label | read as | GNSS course change | steering peak (+ = left) |\n|---|---|---|---|---|---|---|");
+            let _ = writeln!(s, "\nThe held-out segments read otherwise than their label (the label: the GNSS course change from the segment's start to its end and the late GNSS's margin after it, + = right; a turn beyond {:.0} deg, straight under {:.0} deg):\n\n| drive | start (s) | steering | label | read as | GNSS course change | steering peak (+ = left) |\n|---|---|---|---|---|---|---|", crate::turns::LABEL_TURN_DEG, crate::turns::LABEL_STRAIGHT_DEG);
             for m in &t.misses {
                 let _ = writeln!(s, "| {} | {:.1} | {} | {} | {} | {:.1} deg | {:.0} deg |", m.drive, m.t, m.provenance, m.label, m.predicted, m.gnss_change_deg, m.steering_peak_deg);
             }
