@@ -176,6 +176,26 @@ fn a_frozen_position_during_a_crawl_fires_on_distance() {
 }
 
 #[test]
+fn a_crawl_whose_gnss_wanders_back_to_its_start_is_not_a_frozen_position() {
+    // A queue at 1.2 m/s, a position-only 1 Hz receiver whose noise first holds the position,
+    // then carries it 9.6 m east at 0.8 m/s (under GNSS's standing threshold of 1 m/s) and back.
+    // After the wheels' 25 m it is within a fifth of their distance of where it stood (the
+    // newest position alone said frozen, epoch 25), but it was farther than that on the way.
+    let start = std::cell::Cell::new(None);
+    let mut d = Drive::new(1.0, 38, |_| 1.2, |k, p| {
+        if k == 0 { start.set(Some(p)); }
+        let east = match k { 0..=4 => 0.0, 5..=16 => 0.8 * (k - 4) as f64, 17..=28 => 0.8 * (28 - k) as f64, _ => 0.0 };
+        destination(start.get().unwrap(), 90.0, east, EARTH_RADIUS_PAPER_M)
+    });
+    for s in d.samples.iter_mut() {
+        s.gnss_speed = Reading::Missing;
+    }
+    let v = d.run();
+    assert!(fired(&v, StrategyId::Motion).is_empty(), "{:?}", v.iter().map(|x| x.motion).collect::<Vec<_>>());
+    assert!(v[20].motion.is_some_and(|m| m.gnss == detector_core::strategy::motion::MotionState::Standing && m.wheel == detector_core::strategy::motion::MotionState::Moving), "judged as a crawl");
+}
+
+#[test]
 fn time_discontinuity_restarts_without_alarm() {
     let mut d = Drive::new(1.0, 40, |_| 10.0, |_, p| p);
     // A 10 s outage: times jump forward, and the position jumps accordingly.

@@ -11,8 +11,10 @@
 //! - GNSS standing while the wheels turn faster than GNSS's own moving threshold: a frozen
 //!   position, the *overshoot* attack. A crawl slower than that threshold is below the GNSS
 //!   noise floor epoch by epoch, so there the evidence is distance: the wheels have covered
-//!   [`CRAWL_MIN_M`] since GNSS stood while GNSS's position moved less than [`CRAWL_FRACTION`] of
-//!   it (a frozen position at 2 m/s in a queue, which no single epoch shows).
+//!   [`CRAWL_MIN_M`] since GNSS stood while GNSS's position stayed within [`CRAWL_FRACTION`] of
+//!   it of where it stood, all along (a frozen position at 2 m/s in a queue, which no single
+//!   epoch shows; a receiver's wander that brings a real crawl back near its start is farther
+//!   out on the way).
 
 use crate::profile::ReceiverProfile;
 use crate::sample::Sample;
@@ -108,7 +110,11 @@ const POS_KEPT: usize = 4;
 /// A crawl is judged once the wheels covered this much while GNSS stood, metres: fifty times
 /// the position noise of a 1 Hz logger at standstill (about 0.5 m).
 pub const CRAWL_MIN_M: f32 = 25.0;
-/// ... and GNSS's position moved less than this fraction of the wheels' distance meanwhile.
+/// ... and GNSS's position was never farther than this fraction of the wheels' distance from
+/// where it stood. The farthest, not the newest: a real crawl under GNSS noise correlated over
+/// seconds can end near its start (sddi_commuter under 6 m of noise correlated over 6 s, the
+/// nuisance suite's seed 35: 3.6 m from the start after the wheels' 29 m, 13.6 m on the way);
+/// a frozen position never leaves it.
 pub const CRAWL_FRACTION: f32 = 0.2;
 
 #[derive(Clone, Debug)]
@@ -124,8 +130,9 @@ pub struct Motion {
     /// receiver's position noise in speed (learnt only below the moving threshold, so a
     /// spoofer's motion is never learnt as noise).
     standing_ms: f32,
-    /// While the wheels move and GNSS stands: GNSS's position then, and the wheels' distance since.
-    crawl: Option<(crate::geo::LatLon, f32)>,
+    /// While the wheels move and GNSS stands: GNSS's position then, the wheels' distance since,
+    /// and the farthest GNSS has been from that position since.
+    crawl: Option<(crate::geo::LatLon, f32, f32)>,
 }
 
 /// What the position-derived speed's mean square at standstill starts at, (m/s)^2: 0.75 m/s
@@ -179,13 +186,15 @@ impl Motion {
             return false;
         }
         match self.crawl.as_mut() {
-            Some((p0, d)) => {
+            Some((p0, d, farthest)) => {
                 *d += wv.max(0.0) * s.dt_s;
                 let moved = crate::geo::haversine_f32_m(*p0, s.pos, crate::geo::EARTH_RADIUS_PAPER_M);
-                *d >= CRAWL_MIN_M && moved < CRAWL_FRACTION * *d
+                // A distance that is not a number is no evidence of standing.
+                *farthest = if moved.is_finite() { farthest.max(moved) } else { f32::INFINITY };
+                *d >= CRAWL_MIN_M && *farthest < CRAWL_FRACTION * *d
             }
             None => {
-                self.crawl = Some((s.pos, 0.0));
+                self.crawl = Some((s.pos, 0.0, 0.0));
                 false
             }
         }
