@@ -179,8 +179,8 @@ fn a_frozen_position_during_a_crawl_fires_on_distance() {
 fn a_crawl_whose_gnss_wanders_back_to_its_start_is_not_a_frozen_position() {
     // A queue at 1.2 m/s, a position-only 1 Hz receiver whose noise first holds the position,
     // then carries it 9.6 m east at 0.8 m/s (under GNSS's standing threshold of 1 m/s) and back.
-    // After the wheels' 25 m it is within a fifth of their distance of where it stood (the
-    // newest position alone said frozen, epoch 25), but it was farther than that on the way.
+    // After the wheels' 25 m it is within a fifth of their distance of where it stood (judged
+    // on the newest position alone, this fired), but it was farther than that on the way.
     let start = std::cell::Cell::new(None);
     let mut d = Drive::new(1.0, 38, |_| 1.2, |k, p| {
         if k == 0 { start.set(Some(p)); }
