@@ -67,14 +67,13 @@ pub const WINDOWS: usize = 3;
 /// One-second bins kept (the longest window, with room).
 const BINS: usize = 64;
 /// The gross path's floor across the road, m/s ([`VelocityConfig::gross_mps`] is along it): on
-/// the clean drives that report speed and course every across pair beyond 6 sigma and 1 m/s is
-/// a single fix (up to 2.1 m/s), never a run of the gross path's 2.5 s, and a higher floor held
-/// a drift or a rotated track until its residual had passed it (a drift across at 2 m/s within
-/// 10 s: 2 of 13 at 2 m/s, 7 at 1.5). Picked among 1.5, 1 and 0.75 m/s on the evaluation that
-/// judges it: no false alarm at seed 1 at any of them, and over seeds 2 to 42 at 0.75 the same
-/// ones as at 1.5, none new; 1 m/s and 0.75
-/// found ten rotated tracks 1 to 4 s sooner, 0.75 also 3 of 13 drifts across at 1 m/s within
-/// 10 s (none at 1 or 1.5). See docs/evaluation.md.
+/// the clean drives that report speed and course every across pair beyond 6 sigma and 0.75 m/s
+/// is a single fix (six of them), never a run, and a higher floor held a drift or a rotated
+/// track until its residual had passed it (a drift across at 2 m/s within 10 s: 2 of 13 at
+/// 2 m/s, 7 at 1.5). Picked among 1.5, 1 and 0.75 m/s on the evaluation that judges it: no
+/// false alarm at seed 1 at any of them, and over seeds 2 to 42 at 0.75 the same ones as at
+/// 1.5, none new; 1 and 0.75 found ten rotated tracks 1 to 4 s sooner, 0.75 also 3 of 13 drifts
+/// across at 1 m/s within 10 s (none at 1 or 1.5). See docs/evaluation.md.
 pub const GROSS_ACROSS_MPS: f32 = 0.75;
 /// A gross run's pairs beyond this, m/s, fire once they have lasted [`GROSS_FAST_S`] rather than
 /// [`VelocityConfig::gross_s`]: the receivers' own excursions on our drives reach at most
