@@ -379,6 +379,34 @@ fn without_a_gyro_the_check_stops_learning_once_calibrated() {
     assert!(fired(&o).is_empty(), "false alarm at {:?}", fired(&o));
 }
 
+/// Where its noise hides slow drifts the velocity test says it cannot tell, but what it does see
+/// it still reports: a spoofer's step raises the noise of a 1 Hz position-only receiver (one
+/// large difference of the residual), and the blindness that followed silenced a drift of
+/// 5 to 9 m/s that the test itself had found (sddi_commuter, `eval`'s small-biased scenarios).
+#[test]
+fn a_velocity_test_blind_to_slow_drifts_still_fires_on_a_fast_one() {
+    let car = Car {
+        gnss_noise_m: 3.0,
+        first_stop_s: 2000.0,
+        // 25 m/s along the road (bearing 30 deg) from 1200 s.
+        spoof: |t| {
+            let d = 25.0 * (t - 1200.0).max(0.0);
+            (d * 0.5, d * 0.866)
+        },
+        ..Car::default()
+    };
+    let mut samples = drive(&car, 1230.0, 12);
+    for s in samples.iter_mut() {
+        s.signals[Signal::YawRate.index()] = Reading::Missing;
+        s.turn_deg = Reading::Missing;
+    }
+    let o = run(&samples);
+    let before: Vec<TrackOutcome> = o.iter().filter(|(t, _)| (1000.0..1200.0).contains(t)).filter_map(|(_, x)| *x).collect();
+    assert!(before.iter().any(|x| x.velocity.is_some_and(|v| v.blind) && x.uninformative), "never blind before the drift");
+    let f = fired(&o);
+    assert!(f.first().is_some_and(|t| (1200.0..1220.0).contains(t)), "first alarm {:?}", f.first());
+}
+
 /// Past 2048 s of a stretch an `f32` time's step is 2.4e-4 s, so "newer than the last pair
 /// judged" cannot be `t > last + 1e-4`: that judged every fix twice from then on (the second
 /// time with no time between, so no acceleration, and the rotation learnt from it as if the
