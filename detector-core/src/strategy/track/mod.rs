@@ -1012,15 +1012,22 @@ impl TrackCheck {
         let gave_up = self.unjudged_s >= c.give_up_s;
         let windows_blind = (judging || gave_up) && out.bound_10s_mps.is_some_and(|b| b > c.max_bound_mps);
         // The velocity test cannot tell either when its noise hides drifts under the same bound:
-        // it then says so (blind, so uninformative) and raises no suspicion, but a window it
-        // fires still fires: its statistic is in units of that noise, so what it sees beyond it
-        // is evidence. (A spoofer's onset is one large difference of a 1 Hz position-only
-        // receiver's residual, which raised the noise past the bound and silenced drifts of 5
-        // to 9 m/s that the test had found: sddi_commuter, `eval`'s small-biased scenarios.)
+        // it then says so (blind, so uninformative) and raises no suspicion, but a channel whose
+        // noise is settled still fires: its statistic is in units of that noise, so what it sees
+        // beyond it is evidence. (A spoofer's onset is one large difference of a 1 Hz
+        // position-only receiver's residual, which raised the noise past the bound and silenced
+        // drifts of 5 to 9 m/s that the test had found: sddi_commuter, `eval`'s small-biased
+        // scenarios.) A channel whose noise is still being measured, or catching up with a
+        // receiver ten times worse than it assumed, does not: its units are not yet the noise.
         if let Some(v) = out.velocity.as_mut() {
-            if v.bound_10s_mps > c.max_bound_mps && !v.fired.iter().any(|f| *f) {
-                v.suspicious = false;
-                v.blind = true;
+            if v.bound_10s_mps > c.max_bound_mps {
+                for (f, settled) in v.fired.iter_mut().zip(v.settled) {
+                    *f &= settled;
+                }
+                if !v.fired.iter().any(|f| *f) {
+                    v.suspicious = false;
+                    v.blind = true;
+                }
             }
         }
         let velocity_judged = out.velocity.is_some_and(|v| !v.blind);

@@ -257,11 +257,13 @@ struct Channel {
     /// Since when the largest window statistic has been above the threshold.
     above_since: Option<f32>,
     sigma: f32,
+    /// Which of the stored differences were clipped (bit per slot).
+    clipped: u8,
 }
 
 impl Channel {
     fn new(floor: f32) -> Self {
-        Channel { bins: [Bin::default(); BINS], head: i32::MIN, diffs: [0.0; DIFFS], n_diffs: 0, next_diff: 0, last: None, last_sigma_t: None, gross_run: None, above_since: None, sigma: floor }
+        Channel { bins: [Bin::default(); BINS], head: i32::MIN, diffs: [0.0; DIFFS], n_diffs: 0, next_diff: 0, last: None, last_sigma_t: None, gross_run: None, above_since: None, sigma: floor, clipped: 0 }
     }
 
     /// The residual's noise now (see the module documentation): never below what it was less
@@ -273,7 +275,10 @@ impl Channel {
         match self.last {
             Some((tl, rl)) if t - tl >= 0.9 && t - tl <= 2.5 => {
                 if let Some(slot) = self.diffs.get_mut(self.next_diff) {
-                    *slot = libm::fabsf(r - rl).min(5.0 * self.sigma);
+                    let (d, cap) = (libm::fabsf(r - rl), 5.0 * self.sigma);
+                    *slot = d.min(cap);
+                    let bit = 1u8 << (self.next_diff % 8);
+                    self.clipped = if d > cap { self.clipped | bit } else { self.clipped & !bit };
                 }
                 self.next_diff = (self.next_diff + 1) % DIFFS;
                 self.n_diffs = (self.n_diffs + 1).min(DIFFS);
@@ -289,6 +294,12 @@ impl Channel {
         if !self.sigma.is_finite() {
             self.sigma = floor;
         }
+    }
+
+    /// The noise is measured (four differences at least) and not catching up (none of those
+    /// kept clipped at five times the noise before it).
+    fn settled(&self) -> bool {
+        self.n_diffs >= 4 && self.clipped == 0
     }
 
     fn bin_for(&mut self, t: f32) -> Option<&mut Bin> {
@@ -378,7 +389,10 @@ pub struct VelocityOutcome {
     pub suspicious: bool,
     /// The slowest drift (m/s) this test sees within 10 s at the along channel's noise now.
     pub bound_10s_mps: f32,
-    /// The noise hides drifts under the track check's bound: nothing fires (set by the check).
+    /// Per channel: its noise is measured and not catching up (see `Channel::settled`).
+    pub settled: [bool; 2],
+    /// The noise hides drifts under the track check's bound (set by the check): the test says
+    /// it cannot tell, and only a channel whose noise is settled fires.
     pub blind: bool,
     /// The fixes judged at this epoch (with the vehicle signals late, an epoch may judge none
     /// and the next two; the residual is the last one's).
@@ -505,6 +519,9 @@ impl VelocityTest {
                 ch.above_since = None;
                 -1.0
             };
+            if let Some(o) = out.settled.get_mut(k) {
+                *o = ch.settled();
+            }
             if let (Some(o), Some(f), Some(s)) = (out.t.get_mut(k), out.fired.get_mut(k), out.sigma_mps.get_mut(k)) {
                 *o = t_w;
                 *f = held >= if ends.is_some() { cfg.persist_position_s - PERSIST_JITTER_S } else { cfg.persist_s } || gross;
