@@ -70,6 +70,13 @@ fn eval_writes_report_markdown_and_figures() {
         assert_eq!(c["false_alarms"], 0, "{src}: {c}");
         assert!(c["record"].is_object() && c["tyre_change_found_s"].is_number(), "{src}: a 3 % tyre change is found: {c}");
         assert_eq!(c["contradicted"], false, "{src}: {c}");
+        // Every drive of the car, judged with the record its other drives left.
+        let every = c["every_drive"].as_array().unwrap();
+        assert!(every.len() >= 2, "{src}: {c}");
+        for h in every {
+            assert!(h["recorded"] == true && h["false_alarms"] == 0 && h["contradicted"] == false, "{src}: {h}");
+            assert!(h["tyre_change_found_s"].is_number(), "{src}: a 3 % tyre change is found: {h}");
+        }
     }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("Table 3") && md.contains("| turn-by-turn |"));

@@ -6,11 +6,14 @@
 //!
 //! A source's drives with wheel speed are taken in the order of their names (the sources name
 //! them by date): all but the last learn, in turn, each from the record the one before left;
-//! the last is judged. The drives' own fold numbers (strategy 1's term, strategy 2's templates)
-//! are the source's held-out fold, as everywhere in the evaluation.
+//! the last is judged. Then every drive is judged the same way, clean and on the larger tyres,
+//! with the record learnt over all the others in order (a car's later drives, which we do not
+//! have, will meet a record learnt before them). The drives' own fold numbers (strategy 1's
+//! term, strategy 2's templates) are the source's held-out fold, as everywhere in the
+//! evaluation.
 
 use super::plan::{EvalOptions, DRIFT_SWEEP_MPS, WINDOW_S};
-use super::results::{CalibratedCar, CalibratedRate, SweepCounts};
+use super::results::{CalibratedCar, CalibratedRate, HeldOutDrive, SweepCounts};
 use super::run::{receiver_class, verdicts_calibrated, Folds};
 use super::stats::alarm_episodes;
 use crate::dataset::Drive;
@@ -46,23 +49,44 @@ pub fn calibrated_cars(drives: &[Drive], o: &EvalOptions, folds: &Folds) -> BTre
         .collect()
 }
 
-fn car(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> CalibratedCar {
-    let (learn, judged) = drives.split_at(drives.len() - 1);
+/// The record the drives leave, learnt in turn, each from the record the one before left.
+fn learn(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> Option<Record> {
     let mut record: Option<Record> = None;
-    for d in learn {
+    for d in drives {
         let (_, r) = verdicts_calibrated(d, &d.samples, o, folds, record.as_ref());
         // A drive that ends uncalibrated or contradicts the record leaves the record as it was.
         record = r.or(record);
     }
-    let d = judged[0];
-    let (clean, _) = verdicts_calibrated(d, &d.samples, o, folds, record.as_ref());
+    record
+}
+
+/// A drive judged clean with `record`: its alarm episodes, whether it contradicted the record,
+/// and when the same drive on tyres 3 % larger contradicted it (which it must, and say so).
+fn judge_clean(d: &Drive, o: &EvalOptions, folds: &Folds, record: Option<&Record>) -> (usize, bool, Option<f64>) {
+    let (clean, _) = verdicts_calibrated(d, &d.samples, o, folds, record);
     let contradicted = clean.iter().any(|v| v.reasons.contains(Reason::CalibrationContradicted));
-    // The same drive on tyres 3 % larger: the record must be contradicted, and said so.
     let tyres = nuisance::apply(&d.replay, &Nuisance { wheel_scale: Some(1.0 / TYRE_CHANGE), ..Default::default() }, o.seed);
     let (tyre_samples, _) = replay::synchronize(&tyres, o.sync);
-    let (tv, _) = verdicts_calibrated(d, &tyre_samples, o, folds, record.as_ref());
+    let (tv, _) = verdicts_calibrated(d, &tyre_samples, o, folds, record);
     let t0 = tv.first().map_or(0.0, |v| v.t);
-    let tyre_change_found_s = tv.iter().find(|v| v.reasons.contains(Reason::CalibrationContradicted)).map(|v| v.t - t0);
+    let found = tv.iter().find(|v| v.reasons.contains(Reason::CalibrationContradicted)).map(|v| v.t - t0);
+    (alarm_episodes(&clean), contradicted, found)
+}
+
+fn car(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> CalibratedCar {
+    let (learn_on, judged) = drives.split_at(drives.len() - 1);
+    let record = learn(learn_on, o, folds);
+    let d = judged[0];
+    let (false_alarms, contradicted, tyre_change_found_s) = judge_clean(d, o, folds, record.as_ref());
+    let every_drive: Vec<HeldOutDrive> = (0..drives.len())
+        .into_par_iter()
+        .map(|i| {
+            let others: Vec<&Drive> = drives.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, d)| *d).collect();
+            let r = learn(&others, o, folds);
+            let (false_alarms, contradicted, tyre_change_found_s) = judge_clean(drives[i], o, folds, r.as_ref());
+            HeldOutDrive { judged: drives[i].name.clone(), learnt_on: others.iter().map(|d| d.name.clone()).collect(), recorded: r.is_some(), false_alarms, contradicted, tyre_change_found_s }
+        })
+        .collect();
     // Onsets spread evenly over the candidates from the first minute on, both directions.
     let cands = attack::candidate_onsets_from(AttackKind::SlowDrift, &d.samples, Some(CALIBRATED_FIRST_ONSET_S));
     let n = cands.len().min(CALIBRATED_SCENARIOS);
@@ -98,15 +122,16 @@ fn car(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> CalibratedCar {
         })
         .collect();
     CalibratedCar {
-        learnt_on: learn.iter().map(|d| d.name.clone()).collect(),
+        learnt_on: learn_on.iter().map(|d| d.name.clone()).collect(),
         judged: d.name.clone(),
         receiver: receiver_class(d),
         record,
-        false_alarms: alarm_episodes(&clean),
+        false_alarms,
         contradicted,
         tyre_change_found_s,
         first_onset_s: CALIBRATED_FIRST_ONSET_S,
         onsets: onsets.len(),
         sweep: rates,
+        every_drive,
     }
 }

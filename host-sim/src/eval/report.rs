@@ -348,6 +348,13 @@ fn calibrated_cars(r: &Report) -> String {
     for (car, v) in c {
         let _ = writeln!(s, "| {car} | {} drive(s) | {} | {} | {} | {} |", v.learnt_on.len(), v.judged, v.false_alarms, v.contradicted, opt(v.tyre_change_found_s, " s"));
     }
+    let _ = writeln!(s, "\nEvery drive of the car judged the same way, with the record learnt over all its other drives in order (as a car's later drives will meet a record learnt before them):\n\n| car | judged | learnt on | clean false alarms | contradicted | tyres 3 % larger: found at |\n|---|---|---|---|---|---|");
+    for (car, v) in c {
+        for h in &v.every_drive {
+            let learnt = if h.recorded { format!("{} drive(s)", h.learnt_on.len()) } else { "no record".to_string() };
+            let _ = writeln!(s, "| {car} | {} | {learnt} | {} | {} | {} |", h.judged, h.false_alarms, h.contradicted, opt(h.tyre_change_found_s, " s"));
+        }
+    }
     let _ = writeln!(s, "\n| car | rate | along: within 10 / 30 / 60 s | across: within 10 / 30 / 60 s | pre-onset alarms |\n|---|---|---|---|---|");
     for (car, v) in c {
         for p in &v.sweep {

@@ -354,6 +354,23 @@ pub struct CalibratedCar {
     pub first_onset_s: f64,
     pub onsets: usize,
     pub sweep: Vec<CalibratedRate>,
+    /// Every drive of the car judged clean, and on tyres 3 % larger, with the record learnt over
+    /// all its other drives (the drives a car will make after these are judged the same way).
+    pub every_drive: Vec<HeldOutDrive>,
+}
+
+/// One drive of a calibrated car judged with the record its other drives left.
+#[derive(Clone, Debug, Serialize)]
+pub struct HeldOutDrive {
+    pub judged: String,
+    /// The drives the record was learnt from, in order.
+    pub learnt_on: Vec<String>,
+    /// Whether the learning left a record at all.
+    pub recorded: bool,
+    pub false_alarms: usize,
+    pub contradicted: bool,
+    /// On tyres 3 % larger: seconds into the drive when the contradiction was found.
+    pub tyre_change_found_s: Option<f64>,
 }
 
 /// One drift rate on a calibrated car.
