@@ -92,6 +92,8 @@ pub const GROSS_FAST_S: f32 = 2.0;
 pub const PERSIST_JITTER_S: f32 = 0.25;
 /// First differences (one second apart) the noise is the mean of.
 pub const DIFFS: usize = 8;
+// A channel marks its clipped differences in a `u8`, one bit per difference.
+const _: () = assert!(DIFFS <= 8);
 
 /// Tuning of the velocity test. See the module documentation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -277,7 +279,7 @@ impl Channel {
                 if let Some(slot) = self.diffs.get_mut(self.next_diff) {
                     let (d, cap) = (libm::fabsf(r - rl), 5.0 * self.sigma);
                     *slot = d.min(cap);
-                    let bit = 1u8 << (self.next_diff % 8);
+                    let bit = 1u8 << (self.next_diff % DIFFS);
                     self.clipped = if d > cap { self.clipped | bit } else { self.clipped & !bit };
                 }
                 self.next_diff = (self.next_diff + 1) % DIFFS;
