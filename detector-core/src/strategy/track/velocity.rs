@@ -298,10 +298,12 @@ impl Channel {
         }
     }
 
-    /// The noise is measured (four differences at least) and not catching up (none of those
-    /// kept clipped at five times the noise before it).
+    /// The noise is measured (four differences at least) and not catching up: at most one of
+    /// those kept clipped at five times the noise before it (a level's step, as a spoofer's
+    /// onset, is one large difference; a receiver far worse than the noise assumed clips one
+    /// difference after another).
     fn settled(&self) -> bool {
-        self.n_diffs >= 4 && self.clipped == 0
+        self.n_diffs >= 4 && self.clipped.count_ones() <= 1
     }
 
     fn bin_for(&mut self, t: f32) -> Option<&mut Bin> {
