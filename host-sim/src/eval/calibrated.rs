@@ -74,19 +74,22 @@ fn judge_clean(d: &Drive, o: &EvalOptions, folds: &Folds, record: Option<&Record
 }
 
 fn car(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> CalibratedCar {
-    let (learn_on, judged) = drives.split_at(drives.len() - 1);
-    let record = learn(learn_on, o, folds);
-    let d = judged[0];
-    let (false_alarms, contradicted, tyre_change_found_s) = judge_clean(d, o, folds, record.as_ref());
-    let every_drive: Vec<HeldOutDrive> = (0..drives.len())
+    // Every drive judged with the record its other drives leave; the last one's is the car's
+    // record (learnt over the drives before it), which the drift sweep below starts from.
+    let held_out: Vec<(HeldOutDrive, Option<Record>)> = (0..drives.len())
         .into_par_iter()
         .map(|i| {
             let others: Vec<&Drive> = drives.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, d)| *d).collect();
             let r = learn(&others, o, folds);
             let (false_alarms, contradicted, tyre_change_found_s) = judge_clean(drives[i], o, folds, r.as_ref());
-            HeldOutDrive { judged: drives[i].name.clone(), learnt_on: others.iter().map(|d| d.name.clone()).collect(), recorded: r.is_some(), false_alarms, contradicted, tyre_change_found_s }
+            (HeldOutDrive { judged: drives[i].name.clone(), learnt_on: others.iter().map(|d| d.name.clone()).collect(), recorded: r.is_some(), false_alarms, contradicted, tyre_change_found_s }, r)
         })
         .collect();
+    let (learn_on, judged) = drives.split_at(drives.len() - 1);
+    let d = judged[0];
+    let record = held_out.last().and_then(|(_, r)| *r);
+    let every_drive: Vec<HeldOutDrive> = held_out.into_iter().map(|(h, _)| h).collect();
+    let (false_alarms, contradicted, tyre_change_found_s) = every_drive.last().map_or((0, false, None), |h| (h.false_alarms, h.contradicted, h.tyre_change_found_s));
     // Onsets spread evenly over the candidates from the first minute on, both directions.
     let cands = attack::candidate_onsets_from(AttackKind::SlowDrift, &d.samples, Some(CALIBRATED_FIRST_ONSET_S));
     let n = cands.len().min(CALIBRATED_SCENARIOS);
