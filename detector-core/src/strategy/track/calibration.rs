@@ -25,6 +25,8 @@
 //! e^{-i theta}`, `sum |D|^2`, rotation removed so they survive a re-alignment) gives a scale;
 //! the candidate whose fit explains the most wins.
 
+use super::plane::{cmul, conj, norm2};
+
 /// Delay candidates: -3, -2.875, ..., +3 s (a velocity held from a second, 1 Hz receiver that
 /// lags by 1.8 s is up to 2.8 s late).
 pub const DELAYS: usize = 49;
@@ -418,16 +420,6 @@ impl Calibration {
         let dv = if vel.learnt_s > 0.0 || vel.anchor.is_some() { delay_of(vel.best) } else { f32::NAN };
         (self.scale, [self.delay_s(Source::Position), dv], self.learnt_s)
     }
-}
-
-fn cmul(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
-    (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
-}
-fn conj(a: (f32, f32)) -> (f32, f32) {
-    (a.0, -a.1)
-}
-fn norm2(a: (f32, f32)) -> f32 {
-    a.0 * a.0 + a.1 * a.1
 }
 
 #[cfg(test)]
