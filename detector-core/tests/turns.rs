@@ -396,3 +396,42 @@ fn a_crawl_through_a_sharp_turn_is_not_judged_on_the_receivers_noise() {
     let steps: f32 = out.iter().filter(|s| (45.0..=50.0).contains(&s.t)).filter_map(|s| s.shift_m.get()).sum();
     assert!(steps > 15.0, "{steps} m of GNSS steps");
 }
+
+/// A real right turn at town speed: straight at 5.5 m/s for 40 s, then the wheel swings to
+/// -330 deg and back over 3 s (its turn the bicycle model's), the steering reported `late_s`
+/// late, as on a car whose logger stamps CAN late.
+fn sharp_turn(late_s: f64) -> Vec<Sample> {
+    let (dt, v) = (0.1, 5.5);
+    // + = left for the steering: a right turn, its wheel up and down over 3 s.
+    let steer_at = |t: f64| if (40.0..43.0).contains(&t) { -330.0 * (core::f64::consts::PI * (t - 40.0) / 3.0).sin() } else { 0.0 } + 0.3 * (t * 7.0).sin();
+    let (mut p, mut heading, mut prev) = (LatLon::new(42.3, -83.2), 0.0f64, None);
+    let mut out = Vec::new();
+    for k in 0..600 {
+        let t = k as f64 * dt;
+        heading -= (v * (steer_at(t) / 15.0).to_radians().tan() / 2.7).to_degrees() * dt;
+        p = destination(p, heading, v * dt, EARTH_RADIUS_PAPER_M);
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
+        signals[Signal::Steering.index()] = Reading::Valid(steer_at(t - late_s) as f32);
+        out.push(fix(t, dt, p, prev, Some(v as f32), Some(heading), signals));
+        prev = Some(p);
+    }
+    out
+}
+
+/// The heading check's `now` window ends a second before the newest tick: with the steering
+/// 1.8 s late or more (sddi_commuter's own 1.1 s and more; the nuisance suite's seed 5 put it
+/// at 2.4 s), a sharp turn's course passed 60 deg while its steering was still on its way, and
+/// the window that ended at the newest tick called the wheel straight (it fired at 41.9 s for
+/// 1.8 and 2.2 s). At 2.4 s this turn is still misread, by the steering segment's own check (its
+/// GNSS window allows for a late GNSS, not for steering that late): a limit left as it is.
+#[test]
+fn a_sharp_turn_whose_steering_arrives_late_is_no_gnss_only_turn() {
+    for late in [0.0, 1.1, 1.8, 2.2] {
+        let s = sharp_turn(late);
+        let turned: f64 = s.windows(2).map(|w| detector_core::geo::wrap_360(w[1].gnss_course.get().unwrap() as f64 - w[0].gnss_course.get().unwrap() as f64 + 180.0) - 180.0).sum();
+        assert!((80.0..100.0).contains(&turned), "the test's premise: a right turn of about 90 deg ({turned})");
+        let f = turn_fired(&s);
+        assert!(f.is_empty(), "a real turn, steering {late} s late: {:?}", f.first().map(|f| (f.0, f.1.turn)));
+    }
+}

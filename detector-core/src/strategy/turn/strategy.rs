@@ -35,6 +35,19 @@ const HEADING_MARGIN_S: f32 = 1.0;
 /// the sddi_commuter car; the nuisance suite delays them by up to 1.5 s).
 const VEHICLE_LATE_S: f32 = 1.5;
 
+/// The heading check's `now` window ends this long before the newest tick, seconds. It judges
+/// alone while the wheel is straight, on the premise that a turn's recorded steering passes
+/// `settle_deg` before its course turns; that lead is short on a car whose vehicle signals are
+/// already late (sddi_commuter, 1.1 s late: at 63.0 s of `nl_20210217_072036` the wheel reads
+/// 12.8 deg, 49 deg at 63.5 s, while the GNSS course turns 22 deg between the fixes at 62.6 and
+/// 63.5 s), so a little more delay puts the course first. The nuisance suite's vehicle-late on
+/// that car (its own 1.1 s plus 0.2 to 1.5 s) did: seed 5's false alarm, the course 66 deg
+/// round by the newest fix with the steering still on its way. Ending the window 1 s earlier
+/// lets the steering arrive first: a sharp turn at 5.5 m/s with its steering 1.8 or 2.2 s late
+/// fired it before, and no longer does (`a_sharp_turn_whose_steering_arrives_late_is_no_gnss_only_turn`
+/// in `tests/turns.rs`); every `now` detection comes 1 s later.
+const NOW_LAG_S: f32 = 1.0;
+
 /// The ticks the heading check looks back over at most (its window, margins and the vehicle
 /// signals' lag: 64 with the defaults).
 const HEADING_TICKS: usize = 80;
@@ -464,12 +477,14 @@ impl<'a> TurnStrategy<'a> {
         let span = ticks_of(c.heading_window_s);
         let margin = ticks_of(c.heading_margin_s());
         let late = ticks_of(VEHICLE_LATE_S);
-        let total = (late + span + margin).min(HEADING_TICKS - 1);
+        let lag = ticks_of(NOW_LAG_S);
+        let total = (late.max(lag) + span + margin).min(HEADING_TICKS - 1);
         // Two windows of GNSS course, each `span` ticks:
-        // - `now`, ending at the newest tick, judged while the wheel stays straight (below
-        //   `settle_deg`) over it and the margin before it: a late steering signal cannot hide a
-        //   turn there, since a turn's steering passes `settle_deg` long before its course
-        //   passes `straight_turn_deg`;
+        // - `now`, ending `lag` ticks ago, judged while the wheel stays straight (below
+        //   `settle_deg`) over it, the margin before it and the ticks since: a late steering
+        //   signal cannot hide a turn there, since a turn's steering passes `settle_deg` before
+        //   its course passes `straight_turn_deg` (by `NOW_LAG_S` more than the car's own
+        //   lead);
         // - `held`, ending `late` ticks ago so that its steering has arrived when the vehicle
         //   signals are late, judged while no steering segment runs (the wheel below
         //   `start_deg`: its turn is the bicycle model's to imply).
@@ -477,7 +492,7 @@ impl<'a> TurnStrategy<'a> {
         let (mut now_ok, mut held_ok) = (true, true);
         let (mut now_travel, mut held_travel, mut now_implied) = (0.0f32, 0.0f32, 0.0f32);
         let min_speed = HEADING_MIN_SPEED_MPS.max(c.min_speed_mps);
-        let now_last = span + margin;
+        let now_last = lag + span + margin;
         for (age, t) in self.seg.ticks().rev().take(total + 1).enumerate() {
             // Moving while the GNSS course is read (at walking pace a 1 Hz receiver's bearings
             // swing); unknown (NaN) steering or speed fails too.
@@ -500,7 +515,7 @@ impl<'a> TurnStrategy<'a> {
                 return None;
             }
             // A tick's distance and turn come after it: the window's last tick adds none.
-            if age >= 1 && age <= span {
+            if age > lag && age <= lag + span {
                 now_travel += t.speed;
                 now_implied += t.implied_deg;
             }
@@ -512,12 +527,14 @@ impl<'a> TurnStrategy<'a> {
         let history = (last.t - self.seg.ticks().next()?.t) as f32;
         let settled = |extra: f32| history >= extra + c.heading_window_s + c.heading_margin_s() - 0.5;
         // Travel too short (or unknown) for the bearings to mean anything fails a window.
-        now_ok &= settled(0.0) && now_travel >= HEADING_MIN_TRAVEL_M;
+        now_ok &= settled(NOW_LAG_S) && now_travel >= HEADING_MIN_TRAVEL_M;
         held_ok &= settled(VEHICLE_LATE_S) && held_travel >= HEADING_MIN_TRAVEL_M;
         let (mut change, mut implied, mut beyond, mut from, mut end) = (0.0f32, now_implied, 0.0f32, 0usize, newest);
         if now_ok {
-            from = newest.checked_sub(span)?;
-            change = self.seg.course_change(from, newest);
+            let to = newest.checked_sub(lag)?;
+            from = to.checked_sub(span)?;
+            end = to;
+            change = self.seg.course_change(from, to);
             beyond = libm::fabsf(change - implied);
         }
         // With the wheel straight all through, `now` has judged: a late signal changes nothing.
