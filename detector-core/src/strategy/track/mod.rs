@@ -810,7 +810,7 @@ impl TrackCheck {
         };
         self.last_pred = Some((p.t, pred));
         let sp = libm::sqrtf(norm2(pred));
-        if sp.is_nan() || sp < vc.min_speed_mps {
+        if sp.is_nan() || sp < if p.reported { velocity::MIN_SPEED_REPORTED_MPS } else { vc.min_speed_mps } {
             return [None, None];
         }
         let u = scale2(pred, 1.0 / sp);

@@ -90,6 +90,12 @@ pub const GROSS_FAST_S: f32 = 2.0;
 /// met 0.25 s early too it fired css_canedge under a 1 Hz speed and course 1.34 s late
 /// (nuisance suite, seed 8).
 pub const PERSIST_JITTER_S: f32 = 0.25;
+/// Along-track pairs of a receiver that reports its velocity are judged above this DR speed,
+/// m/s ([`VelocityConfig::min_speed_mps`] is for position differences): its Doppler speed holds
+/// at a crawl. At 3 m/s for every receiver, a spoofer who reported 6 to 10 m/s while the car
+/// crept at 1 to 3.6 m/s in a queue went unjudged to the end of the drive (css_canedge session
+/// 1 from 2771 s, `eval`'s small-biased-46; found at 15 s at 1 m/s).
+pub const MIN_SPEED_REPORTED_MPS: f32 = 1.0;
 /// First differences (one second apart) the noise is the mean of.
 pub const DIFFS: usize = 8;
 // A channel marks its clipped differences in a `u8`, one bit per difference.
@@ -144,8 +150,11 @@ pub struct VelocityConfig {
     pub persist_position_s: f32,
     /// The share of `h` above which evidence is accumulating (the calibration freezes).
     pub freeze: f32,
-    /// Along-track pairs are judged above this speed, across-track ones above the second, m/s.
+    /// Along-track pairs are judged above this speed (the DR's), across-track ones above
+    /// `min_speed_across_mps`, m/s: a position difference over a second is mostly noise below
+    /// it. Where the receiver reports its velocity, [`MIN_SPEED_REPORTED_MPS`] instead.
     pub min_speed_mps: f32,
+
     /// Across-track pairs are judged above this speed, m/s.
     pub min_speed_across_mps: f32,
     /// Noise floors (along, across), m/s, the noise assumed before any is measured, and how
