@@ -41,8 +41,8 @@ const VEHICLE_LATE_S: f32 = 1.5;
 /// already late (sddi_commuter, 1.1 s late: at 63.0 s of `nl_20210217_072036` the wheel reads
 /// 12.8 deg, 49 deg at 63.5 s, while the GNSS course turns 22 deg between the fixes at 62.6 and
 /// 63.5 s), so a little more delay puts the course first. The nuisance suite's vehicle-late on
-/// that car (its own 1.1 s plus 0.2 to 1.5 s) did: seed 5's false alarm, the course 66 deg
-/// round by the newest fix with the steering still on its way. Ending the window 1 s earlier
+/// that car (its own 1.1 s plus 0.2 to 1.5 s) did: seed 5's false alarm, the course turned by
+/// 66 deg at the newest fix with the steering still on its way. Ending the window 1 s earlier
 /// lets the steering arrive first: a sharp turn at 5.5 m/s with its steering 1.8 or 2.2 s late
 /// fired it before, and no longer does (`a_sharp_turn_whose_steering_arrives_late_is_no_gnss_only_turn`
 /// in `tests/turns.rs`); every `now` detection comes 1 s later.
