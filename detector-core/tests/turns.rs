@@ -261,15 +261,23 @@ fn a_coarse_sensor_on_a_straight_road_is_healthy_and_one_stuck_through_a_turn_is
 /// either), its heading what the bicycle model makes of that steering. The steering is
 /// reported `late_s` late; from 30 s the GNSS may turn right by 90 deg over 6 s more than the car.
 fn weave(v: f64, amp: f64, period: f64, gnss_extra_turn: bool, late_s: f64) -> Vec<Sample> {
-    let dt = 0.1;
     let steer_at = |t: f64| amp * (2.0 * core::f64::consts::PI * t / period).sin() + 0.3 * (t * 7.0).sin();
+    let extra = |t: f64| if gnss_extra_turn { 90.0 * ((t - 30.0) / 6.0).clamp(0.0, 1.0) } else { 0.0 };
+    steered(v, steer_at, extra, late_s)
+}
+
+/// 60 s at `v` m/s, the heading what the bicycle model (ratio 15, wheelbase 2.7 m) makes of
+/// `steer_at(t)` (deg, + = left), the GNSS turned `gnss_extra(t)` deg (+ = right) more than the
+/// car, the steering reported `late_s` late.
+fn steered(v: f64, steer_at: impl Fn(f64) -> f64, gnss_extra: impl Fn(f64) -> f64, late_s: f64) -> Vec<Sample> {
+    let dt = 0.1;
     let (mut p, mut heading, mut prev) = (LatLon::new(42.3, -83.2), 0.0f64, None);
     let mut out = Vec::new();
     for k in 0..600 {
         let t = k as f64 * dt;
         // + = left for the steering, + = right (clockwise) for headings.
         heading -= (v * (steer_at(t) / 15.0).to_radians().tan() / 2.7).to_degrees() * dt;
-        let extra = if gnss_extra_turn { 90.0 * ((t - 30.0) / 6.0).clamp(0.0, 1.0) } else { 0.0 };
+        let extra = gnss_extra(t);
         p = destination(p, heading + extra, v * dt, EARTH_RADIUS_PAPER_M);
         let mut signals = [Reading::Missing; Signal::COUNT];
         signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
@@ -401,22 +409,9 @@ fn a_crawl_through_a_sharp_turn_is_not_judged_on_the_receivers_noise() {
 /// -330 deg and back over 3 s (its turn the bicycle model's), the steering reported `late_s`
 /// late, as on a car whose logger stamps CAN late.
 fn sharp_turn(late_s: f64) -> Vec<Sample> {
-    let (dt, v) = (0.1, 5.5);
     // + = left for the steering: a right turn, its wheel up and down over 3 s.
     let steer_at = |t: f64| if (40.0..43.0).contains(&t) { -330.0 * (core::f64::consts::PI * (t - 40.0) / 3.0).sin() } else { 0.0 } + 0.3 * (t * 7.0).sin();
-    let (mut p, mut heading, mut prev) = (LatLon::new(42.3, -83.2), 0.0f64, None);
-    let mut out = Vec::new();
-    for k in 0..600 {
-        let t = k as f64 * dt;
-        heading -= (v * (steer_at(t) / 15.0).to_radians().tan() / 2.7).to_degrees() * dt;
-        p = destination(p, heading, v * dt, EARTH_RADIUS_PAPER_M);
-        let mut signals = [Reading::Missing; Signal::COUNT];
-        signals[Signal::WheelSpeed.index()] = Reading::Valid(v as f32);
-        signals[Signal::Steering.index()] = Reading::Valid(steer_at(t - late_s) as f32);
-        out.push(fix(t, dt, p, prev, Some(v as f32), Some(heading), signals));
-        prev = Some(p);
-    }
-    out
+    steered(5.5, steer_at, |_| 0.0, late_s)
 }
 
 /// The heading check's `now` window ends a second before the newest tick: with the steering
