@@ -1,7 +1,7 @@
 //! The evaluation report: `report.json`, `report.md` and the figures (SVG and PNG).
 
 use gnss_data::attack::AttackKind;
-use super::results::{PredictorStats, Quantization, Report, Scenario};
+use super::results::{Headroom, PredictorStats, Quantization, Report, Scenario};
 use crate::output::write_atomic;
 use detector_core::strategy::StrategyId;
 use std::collections::BTreeMap;
@@ -197,6 +197,7 @@ pub fn markdown(r: &Report, figures: &[String]) -> String {
     let _ = writeln!(s, "\n## Table 3: which strategy fired (scenarios)\n\n{}", table3(r));
     s.push_str(&held_out(r));
     s.push_str(&nuisance(r));
+    s.push_str(&headroom(r));
     if let Some(p) = &r.predictors {
         let _ = writeln!(s, "## Strategy 1: kinematic and LSTM predictors\n\n{}", predictors(p, r.quantization.as_ref()));
     }
@@ -322,6 +323,34 @@ fn nuisance(r: &Report) -> String {
     }
     let _ = writeln!(s, "| **all** | {} | {:.1} | {:.1} | **{}** |\n", t.runs, t.hours, t.hours_any, t.false_alarms);
     let _ = writeln!(s, "Upper 95 % bound of the false-alarm rate (Poisson, judged hours): **{:.4} per hour**.\n", t.upper95_per_hour);
+    s
+}
+
+/// How near the clean drives and the nuisance suite came to an alarm, per check.
+fn headroom(r: &Report) -> String {
+    let mut s = String::from("## Headroom\n\nHow near the clean drives (per source, the nearest of its drives) and the nuisance suite (per kind, the nearest of its runs) came to an alarm: each check's statistic as a share of its threshold, the largest it held for as long as the check's persistence (at 1.00 or more it fires). Strategy 1: |GNSS shift - prediction| over its threshold; strategy 3: a wheel/GNSS disagreement's length over its persistence; the track check's position windows: |e| over their threshold; the velocity test: the bank's `T` over `h` along and across the road (its gross path, a run of pairs each beyond 6 sigma and 2 m/s, apart). `-`: the check never judged. Strategy 2 reads a turn as a class and has no such statistic. A drive not in this data meets these margins, not the false-alarm count.\n\n| run | strategy 1 | strategy 3 | position windows | velocity along | velocity across |\n|---|---|---|---|---|---|\n");
+    let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.2}"));
+    let row = |s: &mut String, name: &str, h: &Headroom| {
+        let _ = writeln!(s, "| {name} | {} | {} | {} | {} | {} |", f(h.shift), f(h.motion), f(h.windows), f(h.velocity_along), f(h.velocity_across));
+    };
+    let mut by: BTreeMap<&str, Headroom> = BTreeMap::new();
+    for d in r.clean.per_drive.iter().filter(|d| d.judged) {
+        let e = by.entry(d.source.as_str()).or_default();
+        *e = e.max(d.headroom);
+    }
+    for (src, h) in &by {
+        row(&mut s, &format!("clean {src}"), h);
+    }
+    for (k, v) in r.nuisance.iter().flatten() {
+        row(&mut s, &format!("nuisance `{k}`"), &v.headroom);
+    }
+    s.push_str("\nThe nuisance runs that came nearest, per kind:\n\n| nuisance | run | share |\n|---|---|---|\n");
+    for (k, v) in r.nuisance.iter().flatten() {
+        if let Some((run, x)) = &v.nearest_run {
+            let _ = writeln!(s, "| {k} | {run} | {x:.2} |");
+        }
+    }
+    s.push('\n');
     s
 }
 

@@ -26,6 +26,48 @@ pub struct CleanDrive {
     pub decisions: String,
     /// The same up to the first alarm.
     pub decisions_to_alarm: String,
+    /// How near the drive came to an alarm.
+    pub headroom: Headroom,
+}
+
+/// How near a run came to an alarm: each check's peak statistic over the run, as a share of
+/// what fires it (at 1 the statistic meets its threshold; the check fires once its persistence
+/// holds too). `None`: the check never judged. Strategy 2 has no such statistic: a turn is
+/// read as one class or another.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Headroom {
+    /// Strategy 1: |GNSS shift - prediction| over its threshold.
+    pub shift: Option<f64>,
+    /// Strategy 3: a wheel/GNSS disagreement's length over its persistence.
+    pub motion: Option<f64>,
+    /// The track check's position windows: |e| over its threshold.
+    pub windows: Option<f64>,
+    /// The velocity test along the road: the bank's `T` over `h` (its gross path apart).
+    pub velocity_along: Option<f64>,
+    /// The same across the road (a gyro's cars only).
+    pub velocity_across: Option<f64>,
+}
+
+impl Headroom {
+    /// The largest share of any check's threshold.
+    pub fn nearest(&self) -> Option<f64> {
+        [self.shift, self.motion, self.windows, self.velocity_along, self.velocity_across].into_iter().flatten().reduce(f64::max)
+    }
+
+    /// The larger of each check's peaks.
+    pub fn max(self, o: Headroom) -> Headroom {
+        let m = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        };
+        Headroom {
+            shift: m(self.shift, o.shift),
+            motion: m(self.motion, o.motion),
+            windows: m(self.windows, o.windows),
+            velocity_along: m(self.velocity_along, o.velocity_along),
+            velocity_across: m(self.velocity_across, o.velocity_across),
+        }
+    }
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -304,6 +346,10 @@ pub struct NuisanceStats {
     pub fired_reasons: BTreeMap<&'static str, usize>,
     /// The runs that raised one: drive, seed, what was applied.
     pub false_alarm_runs: Vec<String>,
+    /// The nearest any run came to an alarm, per check.
+    pub headroom: Headroom,
+    /// The run that came nearest (its largest share of any check's threshold), and that share.
+    pub nearest_run: Option<(String, f64)>,
 }
 
 /// The whole nuisance suite: false alarms, and the 95 % upper bound of their rate (Poisson).

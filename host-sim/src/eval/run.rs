@@ -5,7 +5,7 @@
 use super::fold::{self, Fitted, LSTM_SOURCES};
 use super::plan::{capacity, config_for, plan, EvalOptions, DRIFT_SWEEP_MPS, PRE_ONSET_S, WINDOW_S};
 use super::results::*;
-use super::stats::{alarm_episodes, decisions, decisions_to_alarm, digest, kind_stats, poisson_upper95};
+use super::stats::{alarm_episodes, decisions, decisions_to_alarm, digest, headroom, kind_stats, poisson_upper95, Persistence};
 use crate::dataset::Drive;
 use crate::detect::{self, PredictorKind};
 use detector_core::fusion::{Config, Verdict};
@@ -57,6 +57,12 @@ fn hours_track_judged(v: &[Verdict]) -> f64 {
         / 3600.0
 }
 
+/// How near the verdicts `v` on drive `d` came to an alarm.
+fn room(d: &Drive, v: &[Verdict], o: &EvalOptions) -> Headroom {
+    let cfg = config_for(d, o, None);
+    headroom(v, &cfg, Persistence::of(&cfg, receiver_class(d) == "velocity"))
+}
+
 fn run_clean(d: &Drive, o: &EvalOptions, folds: &Folds) -> CleanDrive {
     let v = verdicts(d, &d.samples, o, folds);
     CleanDrive {
@@ -73,6 +79,7 @@ fn run_clean(d: &Drive, o: &EvalOptions, folds: &Folds) -> CleanDrive {
         digest: digest(&v),
         decisions: decisions(&v),
         decisions_to_alarm: decisions_to_alarm(&v),
+        headroom: room(d, &v, o),
     }
 }
 
@@ -159,8 +166,9 @@ pub fn drift_sweep(drives: &[Drive], o: &EvalOptions, folds: &Folds) -> Vec<Drif
 }
 
 /// One nuisance run: its kind, (hours the track check judged, hours any strategy ran), alarm
-/// episodes, what was applied, epochs each strategy fired.
-type NuisanceRun = (NuisanceKind, (f64, f64), usize, String, BTreeMap<&'static str, usize>, BTreeMap<&'static str, usize>);
+/// episodes, what was applied, epochs each strategy fired, each reason given where one fired,
+/// how near it came to an alarm.
+type NuisanceRun = (NuisanceKind, (f64, f64), usize, String, BTreeMap<&'static str, usize>, BTreeMap<&'static str, usize>, Headroom);
 
 /// The nuisance suite: every drive with wheel speed, `variants` draws of every nuisance kind
 /// (seeded), judged with its source's fold. Returns per kind and in total.
@@ -192,13 +200,18 @@ pub fn nuisance_suite(drives: &[Drive], o: &EvalOptions, folds: &Folds, variants
                     *reasons.entry(r.name()).or_insert(0) += 1;
                 }
             }
-            (k, (hours_track_judged(&v), hours_ran(&v)), alarm_episodes(&v), format!("{} seed {seed}: {}", d.name, n.describe()), fired, reasons)
+            let room = room(d, &v, o);
+            (k, (hours_track_judged(&v), hours_ran(&v)), alarm_episodes(&v), format!("{} seed {seed}: {}", d.name, n.describe()), fired, reasons, room)
         })
         .collect();
     let mut per: BTreeMap<&'static str, NuisanceStats> = BTreeMap::new();
     let mut total = NuisanceTotal::default();
-    for (k, h, fa, what, fired, reasons) in runs {
+    for (k, h, fa, what, fired, reasons, room) in runs {
         let s = per.entry(k.name()).or_default();
+        s.headroom = s.headroom.max(room);
+        if let Some(x) = room.nearest().filter(|x| s.nearest_run.as_ref().is_none_or(|(_, m)| x > m)) {
+            s.nearest_run = Some((what.clone(), x));
+        }
         for (st, n) in fired {
             *s.fired_epochs.entry(st).or_insert(0) += n;
         }

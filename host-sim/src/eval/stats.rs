@@ -25,6 +25,79 @@ pub fn alarm_episodes(v: &[Verdict]) -> usize {
     n
 }
 
+/// The largest `x` the ratios `(t, r)` stayed at or above for `persist_s` in one run of
+/// judged epochs (`None` where the check did not judge: the run breaks, as a check's
+/// persistence resets).
+fn held_peak(series: &[(f64, Option<f32>)], persist_s: f64) -> Option<f64> {
+    let mut best: Option<f64> = None;
+    let mut start = 0usize;
+    for (i, &(t, r)) in series.iter().enumerate() {
+        if r.is_none_or(|x| !x.is_finite()) {
+            start = i + 1;
+            continue;
+        }
+        // Held since the newest epoch at or before `t - persist_s` of this run: the least
+        // ratio from there to now.
+        let Some(from) = (start..=i).rev().find(|&j| series[j].0 <= t - persist_s) else { continue };
+        let lo = series[from..=i].iter().filter_map(|(_, r)| *r).fold(f32::INFINITY, f32::min) as f64;
+        best = Some(best.map_or(lo, |m| m.max(lo)));
+    }
+    best
+}
+
+/// Each check's persistence: how long its statistic must stay above its threshold to fire.
+#[derive(Clone, Copy, Debug)]
+pub struct Persistence {
+    /// The track check's position windows, and their fast path (both windows above, the
+    /// 10 s one twice over) in seconds.
+    pub windows_s: f32,
+    pub windows_fast_s: f32,
+    /// The velocity test's windows (a receiver's own velocity, or position differences).
+    pub velocity_s: f32,
+}
+
+impl Persistence {
+    /// The persistence of `cfg`, for a receiver that reports its velocity or not.
+    pub fn of(cfg: &detector_core::fusion::Config, reported: bool) -> Self {
+        let v = &cfg.track.velocity;
+        Persistence {
+            windows_s: cfg.track.persist_s,
+            windows_fast_s: cfg.track.fast_persist_s,
+            velocity_s: if reported { v.persist_s } else { v.persist_position_s - detector_core::strategy::track::velocity::PERSIST_JITTER_S },
+        }
+    }
+}
+
+/// How near a run came to an alarm ([`Headroom`]): each check's statistic as a share of its
+/// threshold, the largest it held for the check's persistence; strategy 3's disagreement
+/// length over its persistence.
+pub fn headroom(v: &[Verdict], cfg: &detector_core::fusion::Config, p: Persistence) -> Headroom {
+    let series = |f: &dyn Fn(&Verdict) -> Option<f32>| v.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
+    let shift = series(&|x| x.shift.filter(|s| s.threshold_m > 0.0).map(|s| s.residual_m.abs() / s.threshold_m));
+    let motion = v.iter().filter_map(|x| x.motion).map(|m| (m.disagree_s / cfg.motion.persist_s.max(1e-3)) as f64).fold(None, |a: Option<f64>, x| Some(a.map_or(x, |m| m.max(x))));
+    let win = |i: usize| series(&|x| x.track.and_then(|t| t.windows[i]).filter(|w| w.threshold_m > 0.0).map(|w| w.e_m / w.threshold_m));
+    let (w10, w30) = (win(0), win(1));
+    let windows = [held_peak(&w10, p.windows_s as f64), held_peak(&w30, p.windows_s as f64), held_peak(&w10, p.windows_fast_s as f64).map(|x| x / 2.0)]
+        .into_iter()
+        .flatten()
+        .reduce(f64::max);
+    // The velocity test's persistence runs on over epochs that judged no pair (its windows
+    // hold their statistic), so only the epochs that judged one are its series; a channel
+    // that never judged a pair (across, without a gyro) has no peak.
+    let vel = |k: usize| {
+        let s: Vec<(f64, Option<f32>)> = v.iter().filter_map(|x| Some((x.t, x.track?.velocity.filter(|vel| vel.h > 0.0)?))).map(|(t, vel)| (t, Some(vel.t[k] / vel.h))).collect();
+        let judged = v.iter().any(|x| x.track.and_then(|t| t.velocity).is_some_and(|vel| vel.residual_mps[k].is_some()));
+        if judged { held_peak(&s, p.velocity_s as f64) } else { None }
+    };
+    Headroom {
+        shift: held_peak(&shift, 0.0),
+        motion,
+        windows,
+        velocity_along: vel(0),
+        velocity_across: vel(1),
+    }
+}
+
 const PROFILES: [&ReceiverProfile; 2] = [&detector_core::profile::UBLOX_10HZ, &detector_core::profile::LOGGER_1HZ];
 
 pub fn thresholds(kind: PredictorKind) -> [f64; 2] {
@@ -249,4 +322,26 @@ pub fn drift_limits(sweep: &[DriftSweepPoint], bound: impl Fn(&str) -> Option<f6
         out.insert(class, m);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::held_peak;
+
+    #[test]
+    fn a_peak_counts_only_as_long_as_it_held() {
+        let s: Vec<(f64, Option<f32>)> = [0.5, 1.2, 1.2, 0.3].iter().enumerate().map(|(t, r)| (t as f64, Some(*r))).collect();
+        assert_eq!(held_peak(&s, 0.0), Some(1.2f32 as f64));
+        // 1.2 at 1 and 2 s: held for one second, not for two.
+        assert_eq!(held_peak(&s, 1.0), Some(1.2f32 as f64));
+        assert_eq!(held_peak(&s, 2.0), Some(0.5f32 as f64));
+        assert_eq!(held_peak(&s, 4.0), None);
+    }
+
+    #[test]
+    fn an_epoch_the_check_did_not_judge_breaks_the_run() {
+        let s = [(0.0, Some(1.0)), (1.0, None), (2.0, Some(1.0)), (3.0, Some(0.8))];
+        assert_eq!(held_peak(&s, 2.0), None);
+        assert_eq!(held_peak(&s, 1.0), Some(0.8f32 as f64));
+    }
 }
