@@ -43,9 +43,10 @@
 //! time (the banks of finite cumulative
 //! monitors of Quartararo & Langel, NAVIGATION 2022, in their simplest form); pairs beyond
 //! [`VelocityConfig::gross`] (and beyond [`VelocityConfig::gross_mps`] along the road,
-//! [`GROSS_ACROSS_MPS`] across it) in the same direction for [`VelocityConfig::gross_s`], or
-//! beyond [`GROSS_FAST_MPS`] for [`GROSS_FAST_S`], fire at once (a drift of metres per
-//! second, a frozen position). Every fix is judged, oldest first, once the DR's
+//! [`GROSS_ACROSS_MPS`] across it) in the same direction for [`VelocityConfig::gross_s`],
+//! beyond [`GROSS_FAST_MPS`] for [`GROSS_FAST_S`], or along the road beyond
+//! [`GROSS_SLOW_MPS`] for [`GROSS_SLOW_S`], fire at once (a drift of metres per second, a
+//! frozen position: the smaller the run, the longer it must last). Every fix is judged, oldest first, once the DR's
 //! velocity at the learnt delay is known for it (none is skipped when the vehicle signals are
 //! late).
 //! No window is shorter than 10 s: the receivers and cars of our data disagree by 2 m/s for up
@@ -83,6 +84,16 @@ pub const GROSS_ACROSS_MPS: f32 = 0.75;
 pub const GROSS_FAST_MPS: f32 = 4.0;
 /// ... for this long (first pair to last), seconds: three fixes at 1 Hz.
 pub const GROSS_FAST_S: f32 = 2.0;
+/// A gross run along the road whose pairs are beyond this, m/s, but not all beyond the floor
+/// ([`VelocityConfig::gross_mps`]) fires once it has lasted [`GROSS_SLOW_S`]: the smaller the
+/// residual, the longer it must last. The receivers' own excursions on our drives last three
+/// fixes (css_canedge session 1 at 2251 to 2254 s, 1.5 to 3.1 m/s); under a speed and course
+/// up to a second late they outlast the floor's 2.5 s at a 1.5 m/s floor (6 false alarms in
+/// the nuisance suite, seed 1), not 4 s. 1.5 m/s and 4 s are the only values run; see
+/// docs/evaluation.md.
+pub const GROSS_SLOW_MPS: f32 = 1.5;
+/// ... for this long (first pair to last), seconds: five fixes at 1 Hz.
+pub const GROSS_SLOW_S: f32 = 4.0;
 /// [`VelocityConfig::persist_position_s`] is a number of fixes, two in a row at 1 Hz: it is met
 /// this much early, seconds, since a logger's stamps jitter (sddi_commuter: 30 % of its 1 Hz
 /// fixes are 0.9 or 1.1 s apart, and a small bias found at two fixes 0.98 s apart waited for a
@@ -129,7 +140,8 @@ pub struct VelocityConfig {
     pub gross: f32,
     /// The gross path's floor along the road, m/s: the css_canedge receiver's own speed
     /// excursion runs for three fixes at 1.5 to 3.1 m/s (session 1, 2251 to 2254 s). Across the
-    /// road it is [`GROSS_ACROSS_MPS`].
+    /// road it is [`GROSS_ACROSS_MPS`]; under it a run beyond [`GROSS_SLOW_MPS`] must last
+    /// [`GROSS_SLOW_S`].
     pub gross_mps: f32,
     /// ... for this long (first pair to last), seconds: four fixes at 1 Hz, since a receiver's
     /// own glitch lasts three (css_canedge session 1 at 2251 to 2254 s: three fixes 0.99 s
@@ -248,6 +260,39 @@ struct GrossRun {
     newest: f32,
     /// The first of the newest pairs that are all beyond [`GROSS_FAST_MPS`], if the newest is.
     fast_since: Option<f32>,
+    /// The same beyond the floor ([`VelocityConfig::gross_mps`] along the road), infinite
+    /// while the newest is not: the run's pairs from [`GROSS_SLOW_MPS`] up count only towards
+    /// [`GROSS_SLOW_S`].
+    floor_since: f32,
+}
+
+impl GrossRun {
+    /// The run after a pair of residual `r` (m/s) and `z`: extended when the pair is beyond
+    /// `gross` sigma and the slow floor of `floors` (slow, floor) in the run's direction,
+    /// begun anew in the other, ended below them. Not inlined: one copy for both channels.
+    #[inline(never)]
+    fn after(run: Option<GrossRun>, t: f32, z: f32, r: f32, gross: f32, floors: (f32, f32)) -> Option<GrossRun> {
+        let a = libm::fabsf(r);
+        if !(libm::fabsf(z) > gross && a > floors.0) {
+            return None;
+        }
+        let (fast, beyond) = (a > GROSS_FAST_MPS, a > floors.1);
+        Some(match run {
+            Some(g) if g.sign == z.signum() => GrossRun {
+                newest: t,
+                fast_since: if fast { g.fast_since.or(Some(t)) } else { None },
+                floor_since: if beyond { g.floor_since.min(t) } else { f32::INFINITY },
+                ..g
+            },
+            _ => GrossRun { since: t, sign: z.signum(), newest: t, fast_since: fast.then_some(t), floor_since: if beyond { t } else { f32::INFINITY } },
+        })
+    }
+
+    /// The run has lasted long enough for its size: [`GROSS_SLOW_S`], `gross_s` beyond the
+    /// floor, [`GROSS_FAST_S`] beyond [`GROSS_FAST_MPS`].
+    fn fires(&self, gross_s: f32) -> bool {
+        self.newest - self.since >= GROSS_SLOW_S || self.newest - self.floor_since >= gross_s || self.fast_since.is_some_and(|f| self.newest - f >= GROSS_FAST_S)
+    }
 }
 
 /// One channel's state.
@@ -506,16 +551,8 @@ impl VelocityTest {
                 b.iw += w / sd.max(1e-6);
                 b.dist += ends.map_or(0.0, |e| e.speed_mps.max(0.0) * w);
             }
-            let gross_mps = if k == ALONG { cfg.gross_mps } else { GROSS_ACROSS_MPS };
-            ch.gross_run = if libm::fabsf(z) > cfg.gross && libm::fabsf(r) > gross_mps {
-                let fast = libm::fabsf(r) > GROSS_FAST_MPS;
-                match ch.gross_run {
-                    Some(g) if g.sign == z.signum() => Some(GrossRun { newest: t, fast_since: if fast { g.fast_since.or(Some(t)) } else { None }, ..g }),
-                    _ => Some(GrossRun { since: t, sign: z.signum(), newest: t, fast_since: fast.then_some(t) }),
-                }
-            } else {
-                None
-            };
+            let floors = if k == ALONG { (GROSS_SLOW_MPS, cfg.gross_mps) } else { (GROSS_ACROSS_MPS, GROSS_ACROSS_MPS) };
+            ch.gross_run = GrossRun::after(ch.gross_run, t, z, r, cfg.gross, floors);
             if let Some(o) = out.residual_mps.get_mut(k) {
                 *o = Some(r);
             }
@@ -528,7 +565,7 @@ impl VelocityTest {
             if let Some(o) = out.t_windows.get_mut(k) {
                 *o = tw;
             }
-            let gross = ch.gross_run.is_some_and(|g| g.newest - g.since >= cfg.gross_s || g.fast_since.is_some_and(|f| g.newest - f >= GROSS_FAST_S));
+            let gross = ch.gross_run.is_some_and(|g| g.fires(cfg.gross_s));
             let held = if t_w > h { t - *ch.above_since.get_or_insert(t) } else {
                 ch.above_since = None;
                 -1.0
@@ -628,6 +665,28 @@ mod tests {
         assert!(!fires(10.0, 2.05), "2 s at 10 Hz");
         assert!(fires(1.0, 3.5), "four fixes at 1 Hz");
         assert!(fires(10.0, 3.0), "3 s at 10 Hz");
+    }
+
+    /// Along the road the smaller the run, the longer it must last: 1.7 m/s (beyond 6 sigma,
+    /// under the 2 m/s floor) fires once its pairs span 4 s, five fixes at 1 Hz, not at the
+    /// floor's 2.5 s; a receiver's own excursion of that size over four fixes does not.
+    #[test]
+    fn a_gross_run_under_the_floor_fires_after_four_seconds() {
+        let first_fire = |fixes: usize| {
+            let mut v = VelocityTest::new(VelocityConfig::default());
+            for k in 0..160 {
+                let t = k as f32;
+                let quiet = if k % 2 == 0 { 0.05 } else { -0.05 };
+                let r = if (100..100 + fixes).contains(&k) { 1.7 } else { quiet };
+                if v.observe(t, [Some((r, 0.0)), None], None).fired[ALONG] {
+                    return Some(t - 100.0);
+                }
+            }
+            None
+        };
+        assert_eq!(first_fire(4), None, "four fixes over 3 s");
+        assert_eq!(first_fire(5), Some(4.0), "five fixes over 4 s");
+        assert_eq!(first_fire(60), Some(4.0), "a drift");
     }
 
     /// The gross path's floor is lower across the road (0.75 m/s) than along it (2 m/s, the
