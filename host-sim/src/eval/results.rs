@@ -30,10 +30,10 @@ pub struct CleanDrive {
     pub headroom: Headroom,
 }
 
-/// How near a run came to an alarm: each check's peak statistic over the run, as a share of
-/// what fires it (at 1 the statistic meets its threshold; the check fires once its persistence
-/// holds too). `None`: the check never judged. Strategy 2 has no such statistic: a turn is
-/// read as one class or another.
+/// How near a run came to an alarm: each check's statistic as a share of its threshold, the
+/// largest it held for as long as the check's persistence (at 1 or more it fires; approximate
+/// near 1, see `stats::headroom`). `None`: the check never judged. Strategy 2 has no such
+/// statistic: a turn is read as one class or another.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct Headroom {
     /// Strategy 1: |GNSS shift - prediction| over its threshold.
@@ -42,7 +42,8 @@ pub struct Headroom {
     pub motion: Option<f64>,
     /// The track check's position windows: |e| over its threshold.
     pub windows: Option<f64>,
-    /// The velocity test along the road: the bank's `T` over `h` (its gross path apart).
+    /// The velocity test along the road: the bank's `T` over `h` (its gross path apart),
+    /// held for its persistence on the epochs' times (its pairs' run up to 2 s behind).
     pub velocity_along: Option<f64>,
     /// The same across the road (a gyro's cars only).
     pub velocity_across: Option<f64>,
