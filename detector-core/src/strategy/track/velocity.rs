@@ -667,26 +667,35 @@ mod tests {
         assert!(fires(10.0, 3.0), "3 s at 10 Hz");
     }
 
+    /// When a residual of `r` m/s on `channel` over `fixes` fixes at 1 Hz from 100 s on (both
+    /// channels quiet, +-0.05 m/s, before and after) first fires that channel, seconds after
+    /// its first fix.
+    fn first_fire(channel: usize, r: f32, fixes: usize) -> Option<f32> {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        for k in 0..160 {
+            let t = k as f32;
+            let quiet = if k % 2 == 0 { 0.05 } else { -0.05 };
+            let mut pairs = [Some((quiet, 0.0)), Some((quiet, 0.0))];
+            if (100..100 + fixes).contains(&k) {
+                if let Some(p) = pairs.get_mut(channel) {
+                    *p = Some((r, 0.0));
+                }
+            }
+            if v.observe(t, pairs, None).fired[channel] {
+                return Some(t - 100.0);
+            }
+        }
+        None
+    }
+
     /// Along the road the smaller the run, the longer it must last: 1.7 m/s (beyond 6 sigma,
     /// under the 2 m/s floor) fires once its pairs span 4 s, five fixes at 1 Hz, not at the
     /// floor's 2.5 s; a receiver's own excursion of that size over four fixes does not.
     #[test]
     fn a_gross_run_under_the_floor_fires_after_four_seconds() {
-        let first_fire = |fixes: usize| {
-            let mut v = VelocityTest::new(VelocityConfig::default());
-            for k in 0..160 {
-                let t = k as f32;
-                let quiet = if k % 2 == 0 { 0.05 } else { -0.05 };
-                let r = if (100..100 + fixes).contains(&k) { 1.7 } else { quiet };
-                if v.observe(t, [Some((r, 0.0)), None], None).fired[ALONG] {
-                    return Some(t - 100.0);
-                }
-            }
-            None
-        };
-        assert_eq!(first_fire(4), None, "four fixes over 3 s");
-        assert_eq!(first_fire(5), Some(4.0), "five fixes over 4 s");
-        assert_eq!(first_fire(60), Some(4.0), "a drift");
+        assert_eq!(first_fire(ALONG, 1.7, 4), None, "four fixes over 3 s");
+        assert_eq!(first_fire(ALONG, 1.7, 5), Some(4.0), "five fixes over 4 s");
+        assert_eq!(first_fire(ALONG, 1.7, 60), Some(4.0), "a drift");
     }
 
     /// The gross path's floor is lower across the road (0.75 m/s) than along it (2 m/s, the
@@ -694,22 +703,8 @@ mod tests {
     /// along waits for the windows.
     #[test]
     fn the_gross_path_takes_a_lower_floor_across_the_road() {
-        let first_fire = |channel: usize| {
-            let mut v = VelocityTest::new(VelocityConfig::default());
-            for k in 0..160 {
-                let t = k as f32;
-                let quiet = if k % 2 == 0 { 0.05 } else { -0.05 };
-                let r = if t >= 100.0 { 1.0 } else { quiet };
-                let mut pairs = [Some((quiet, 0.0)), Some((quiet, 0.0))];
-                pairs[channel] = Some((r, 0.0));
-                if v.observe(t, pairs, None).fired[channel] {
-                    return Some(t - 100.0);
-                }
-            }
-            None
-        };
-        let across = first_fire(ACROSS);
-        let along = first_fire(ALONG);
+        let across = first_fire(ACROSS, 1.0, 60);
+        let along = first_fire(ALONG, 1.0, 60);
         assert!(across.is_some_and(|t| t <= 3.0), "across: {across:?}");
         assert!(along.is_some_and(|t| t > 5.0), "along: {along:?}");
     }
