@@ -40,6 +40,7 @@ fn print_stats(s: &inspect::DriveStats) {
     outln!("{}", s.path);
     outln!("  format {}  epochs {}  duration {:.1} s  GNSS {:.2} Hz  distance {:.0} m", s.format, s.epochs, s.duration_s, s.gnss_hz, s.distance_m);
     let sig: Vec<String> = s.signals.iter().map(|(k, v)| format!("{k} {:.0}%", v * 100.0)).collect();
+    outln!("  fix interval {:.3} s, stamps' jitter {:.3} s (sd of the intervals within 30 % of it)", s.fix_interval_s, s.fix_jitter_s);
     outln!("  valid: {}", sig.join(", "));
     outln!("  stops {}  turns left {} right {}", s.stops, s.turns_left, s.turns_right);
     if s.skipped_rows > 0 {
