@@ -430,3 +430,48 @@ fn a_sharp_turn_whose_steering_arrives_late_is_no_gnss_only_turn() {
         assert!(f.is_empty(), "a real turn, steering {late} s late: {:?}", f.first().map(|f| (f.0, f.1.turn)));
     }
 }
+
+/// A 1 Hz receiver without speed or course whose fixes step `step_m` north each second, but
+/// at 40 and 41 s at 70 deg (east of north), while the wheels read 6 m/s and the wheel stays
+/// straight. The first bearing of each step is the heading check's GNSS course.
+fn swing_at_1hz(step_m: f64) -> Vec<Sample> {
+    let mut p = LatLon::new(51.8, 5.7);
+    let mut prev: Option<LatLon> = None;
+    let mut out = Vec::new();
+    for k in 0..60 {
+        let t = k as f64;
+        let bearing = if k == 40 || k == 41 { 70.0 } else { 0.0 };
+        if k > 0 {
+            p = destination(p, bearing, step_m, EARTH_RADIUS_PAPER_M);
+        }
+        let mut signals = [Reading::Missing; Signal::COUNT];
+        signals[Signal::WheelSpeed.index()] = Reading::Valid(6.0);
+        signals[Signal::Steering.index()] = Reading::Valid(0.3 * ((k as f32) * 0.7).sin());
+        out.push(fix(t, 1.0, p, prev, None, None, signals));
+        prev = Some(p);
+    }
+    out
+}
+
+/// A bearing between two 1 Hz fixes is as good as the track it spans: a receiver's wander of
+/// metres in town swings the bearing of a slow car's steps by tens of degrees. The heading check
+/// judges it only where the GNSS itself moved at its 5 m/s, not where the wheels alone say so
+/// (sddi_commuter under the nuisance suite's GNSS noise, seed 10: an 87 deg swing over a 3 m
+/// step while the wheels, 1.5 s late as the car braked, still read 5 to 8 m/s). The same swing
+/// over 6 m steps (a spoofed turn at speed) is judged and fires.
+#[test]
+fn a_bearing_of_slow_fixes_is_not_judged_on_the_wheels_speed() {
+    let fired = |step_m: f64| {
+        let mut ts = turn::TurnStrategy::new(turn::TurnConfig::default(), None);
+        swing_at_1hz(step_m)
+            .iter()
+            .filter_map(|s| match ts.step(s) {
+                turn::TurnStep::Judged(o) if o.mismatch == Some(turn::TurnMismatch::GnssTurnWheelStraight) => Some(s.t),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+    };
+    let fast = fired(6.0);
+    assert!(fast.first().is_some_and(|t| (41.0..46.0).contains(t)), "6 m steps: {fast:?}");
+    assert!(fired(3.0).is_empty(), "3 m steps judged on the wheels' 6 m/s: {:?}", fired(3.0));
+}

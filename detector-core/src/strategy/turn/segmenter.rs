@@ -47,6 +47,8 @@ pub struct Tick {
     pub dist: f32,
     /// Wheel speed (else GNSS speed), m/s; NaN when unknown.
     pub speed: f32,
+    /// The GNSS's own speed (reported, else its track's over the epoch), m/s; NaN when unknown.
+    pub gnss_speed: f32,
     /// The heading change over this tick that the steering implies (bicycle model), degrees;
     /// computed once per tick (a tangent) instead of at every look back over the window.
     pub implied_deg: f32,

@@ -22,8 +22,8 @@ const BEARING_BASELINE_M: f32 = 3.0;
 /// walking pace a receiver whose position wanders by metres in town (a smooth 6.5 m error)
 /// turns its bearings by 90 degrees.
 const HEADING_MIN_TRAVEL_M: f32 = 30.0;
-/// ... and stayed above this speed all through it, m/s (slowing to a stop, the bearings of such
-/// a receiver swing by tens of degrees).
+/// ... and stayed above this speed all through it, m/s, by the wheels and by the GNSS itself
+/// (slowing to a stop, the bearings of such a receiver swing by tens of degrees).
 const HEADING_MIN_SPEED_MPS: f32 = 5.0;
 
 /// The heading check also wants the wheel straight this long before its window, beyond the
@@ -356,6 +356,8 @@ impl<'a> TurnStrategy<'a> {
             .or_else(|| s.shift_m.get().filter(|d| d.is_finite() && *d < 1e4))
             .unwrap_or(0.0);
         let speed = s.wheel_speed().get().or(s.gnss_speed.get()).filter(|v| v.is_finite()).unwrap_or(f32::NAN);
+        // The GNSS's own speed: a bearing between fixes is as good as the track it spans.
+        let gnss_speed = s.gnss_speed.get().or_else(|| s.shift_m.get().filter(|_| s.dt_s > 0.0).map(|d| d / s.dt_s)).filter(|v| v.is_finite()).unwrap_or(f32::NAN);
         let mut out = None;
         let bicycle = self.cfg.bicycle();
         match self.last {
@@ -379,6 +381,7 @@ impl<'a> TurnStrategy<'a> {
                         heading: if w < 1.0 { h0 } else { heading },
                         dist: d0 + shift * w,
                         speed,
+                        gnss_speed,
                         implied_deg: bicycle.heading_change_deg(steer, speed, TICK_S as f32),
                     };
                     if let Some(o) = self.on_tick(tick, derived) {
@@ -395,7 +398,7 @@ impl<'a> TurnStrategy<'a> {
                 self.dist = 0.0;
                 self.next_tick = s.t;
                 let implied_deg = bicycle.heading_change_deg(steer, speed, TICK_S as f32);
-                let tick = Tick { t: s.t, steer, heading, dist: 0.0, speed, implied_deg };
+                let tick = Tick { t: s.t, steer, heading, dist: 0.0, speed, gnss_speed, implied_deg };
                 let _ = self.on_tick(tick, derived);
                 self.next_tick = s.t + TICK_S;
             }
@@ -495,8 +498,9 @@ impl<'a> TurnStrategy<'a> {
         let now_last = lag + span + margin;
         for (age, t) in self.seg.ticks().rev().take(total + 1).enumerate() {
             // Moving while the GNSS course is read (at walking pace a 1 Hz receiver's bearings
-            // swing); unknown (NaN) steering or speed fails too.
-            let moving = t.speed >= min_speed;
+            // swing), by the wheels and by the GNSS's own speed (late wheels still read the
+            // speed before the car braked); unknown (NaN) steering or wheel speed fails too.
+            let moving = t.speed >= min_speed && t.gnss_speed.partial_cmp(&min_speed) != Some(core::cmp::Ordering::Less);
             let a = libm::fabsf(t.steer);
             if now_ok {
                 if !(a < c.settle_deg && moving) {
