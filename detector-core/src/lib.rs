@@ -106,6 +106,7 @@
 #![deny(missing_docs)]
 
 pub mod stage;
+pub mod time;
 pub mod wire;
 pub mod geo;
 pub mod sample;

@@ -30,6 +30,7 @@
 
 use crate::geo::{haversine_f32_m, EARTH_RADIUS_PAPER_M};
 use crate::sample::{Fix, Reading, Sample, Signal};
+use crate::time::before;
 use heapless::Deque;
 
 /// Observations kept per signal. CAN signals arrive at up to ~100 Hz and a GNSS sentence can be
@@ -177,10 +178,10 @@ impl Synchronizer {
         let gap = self.cfg.max_gap_s;
         let hist = &mut self.hist[sig.index()];
         if let Some(last) = hist.back().copied() {
-            if t < last.t {
+            if before(t, last.t) {
                 self.counters.obs_out_of_order = self.counters.obs_out_of_order.wrapping_add(1);
                 return;
-            } else if t == last.t {
+            } else if !before(last.t, t) {
                 // Repeated timestamp: the newest value wins, and the integral to it follows.
                 let before = hist.iter().rev().nth(1).copied();
                 let cum = match before {
@@ -225,7 +226,7 @@ impl Synchronizer {
         }
         self.check_clock_reset(fix.t, emit);
         if let Some(last) = self.last_fix_t {
-            if fix.t <= last {
+            if !before(last, fix.t) {
                 self.counters.fixes_out_of_order = self.counters.fixes_out_of_order.wrapping_add(1);
                 return;
             }
@@ -273,8 +274,17 @@ impl Synchronizer {
 
     /// All inputs share one clock: an input far behind the latest time is a clock reset.
     fn check_clock_reset(&mut self, t: f64, emit: &mut impl FnMut(&Sample)) {
-        // `t >= c` (the usual case: inputs arrive in time order) settles it with one comparison.
-        if self.clock.is_some_and(|c| t < c && t < c - self.cfg.reset_backjump_s) {
+        // `t >= c` (the usual case: inputs arrive in time order) settles it with one comparison
+        // (`before`: integer instructions, the times are finite), the subtraction only after.
+        if let Some(c) = self.clock.filter(|c| before(t, *c)) {
+            self.backjump(t, c, emit);
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn backjump(&mut self, t: f64, c: f64, emit: &mut impl FnMut(&Sample)) {
+        if t < c - self.cfg.reset_backjump_s {
             self.reset(emit);
             self.counters.resets = self.counters.resets.wrapping_add(1);
         }
@@ -282,7 +292,7 @@ impl Synchronizer {
 
     fn advance_clock(&mut self, t: f64) {
         self.clock = Some(match self.clock {
-            Some(c) if c >= t => c,
+            Some(c) if !before(c, t) => c,
             _ => t,
         });
     }
@@ -311,7 +321,7 @@ impl Synchronizer {
             // Pending epochs are in time order, so once one is within the gap of the clock all
             // later ones are (`c - t` is monotone in `t`, rounding included).
             for p in self.pending.iter_mut().filter(|p| !p.ready()) {
-                let timed_out = c >= p.within_gap_below && c - p.fix.t > gap;
+                let timed_out = !before(c, p.within_gap_below) && c - p.fix.t > gap;
                 if !timed_out {
                     break;
                 }
@@ -399,17 +409,17 @@ fn resolve(hist: &Deque<Obs, HISTORY>, integrated: bool, gap: f64, clock: Option
         return Slot::Done(Reading::Missing, None);
     }
     // Last observation at or before the epoch, and the one after it.
-    let mut before: Option<Obs> = None;
-    let mut after: Option<Obs> = None;
+    let mut prior: Option<Obs> = None;
+    let mut next: Option<Obs> = None;
     for o in hist.iter().rev() {
-        if o.t <= te {
-            before = Some(*o);
+        if !before(te, o.t) {
+            prior = Some(*o);
             break;
         }
-        after = Some(*o);
+        next = Some(*o);
     }
-    match (before, after) {
-        (Some(b), _) if b.t == te => Slot::Done(Reading::Valid(b.v), integrated.then_some(b.cum)),
+    match (prior, next) {
+        (Some(b), _) if !before(b.t, te) => Slot::Done(Reading::Valid(b.v), integrated.then_some(b.cum)),
         (Some(b), _) if te - b.t > gap => Slot::Done(Reading::Stale, None),
         (Some(b), Some(a)) => {
             if a.t - te > gap {

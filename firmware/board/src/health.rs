@@ -20,6 +20,7 @@ use crate::can::ours::*;
 use crate::can::Field;
 use detector_core::fusion::Verdict;
 use detector_core::strategy::StrategySet;
+use detector_core::time::before;
 
 /// Seconds between status frames (pages 0, 1 and 2 together).
 pub const STATUS_PERIOD_S: f64 = 1.0;
@@ -255,10 +256,16 @@ impl Health {
         if !now.is_finite() {
             return None;
         }
-        match self.next_status_t {
-            // Time going backwards (a clock reset) restarts the period.
-            Some(t) if now < t && (now > self.quiet_after || t - now <= STATUS_PERIOD_S) => return None,
-            _ => {}
+        if let Some(t) = self.next_status_t {
+            // Within the period: nothing owed. Asked after every CAN frame, so the common case
+            // is integer compares (`before`); the soft-float subtraction only where that cannot
+            // tell. Time going backwards (a clock reset) restarts the period.
+            if before(now, t) && before(self.quiet_after, now) {
+                return None;
+            }
+            if now < t && t - now <= STATUS_PERIOD_S {
+                return None;
+            }
         }
         // On the period's grid (a late poll does not shift it), unless a whole period was missed.
         let next = match self.next_status_t {
@@ -476,8 +483,8 @@ impl AlarmOutbox {
     /// [`ALARM_REPEAT_S`]. Hand it to the transmitter, then report [`AlarmOutbox::sent`] or
     /// [`AlarmOutbox::failed`].
     pub fn next(&mut self, now: f64) -> Option<AlarmFrame> {
-        if let Some(p) = self.pending.take() {
-            return Some(p);
+        if self.pending.is_some() {
+            return self.pending.take();
         }
         let l = self.latched?;
         let due = self.last_sent_t.is_none_or(|t| now < t || now - t >= ALARM_REPEAT_S || (now - t).is_nan());
