@@ -183,8 +183,8 @@ impl Synchronizer {
                 return;
             } else if !before(last.t, t) {
                 // Repeated timestamp: the newest value wins, and the integral to it follows.
-                let before = hist.iter().rev().nth(1).copied();
-                let cum = match before {
+                let prior = hist.iter().rev().nth(1).copied();
+                let cum = match prior {
                     Some(b) if sig.integrated() => integrate(b, t, v, gap),
                     _ => last.cum,
                 };

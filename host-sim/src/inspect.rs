@@ -72,7 +72,6 @@ pub fn stats(r: &Replay, samples: &[Sample], earth_radius_m: f64) -> DriveStats 
     }
 }
 
-
 /// The median interval between consecutive epochs, and the standard deviation of the intervals
 /// within 30 % of it (0, 0 with fewer than two intervals).
 fn interval_and_jitter(samples: &[Sample]) -> (f64, f64) {

@@ -499,7 +499,8 @@ impl<'a> TurnStrategy<'a> {
         for (age, t) in self.seg.ticks().rev().take(total + 1).enumerate() {
             // Moving while the GNSS course is read (at walking pace a 1 Hz receiver's bearings
             // swing), by the wheels and by the GNSS's own speed (late wheels still read the
-            // speed before the car braked); unknown (NaN) steering or wheel speed fails too.
+            // speed before the car braked); unknown (NaN) steering or wheel speed fails too, an
+            // unknown GNSS speed (no step yet) does not.
             let moving = t.speed >= min_speed && t.gnss_speed.partial_cmp(&min_speed) != Some(core::cmp::Ordering::Less);
             let a = libm::fabsf(t.steer);
             if now_ok {
