@@ -591,3 +591,21 @@ fn a_receiver_reporting_speed_is_judged_at_a_crawl() {
     let f = fired(&o);
     assert!(f.first().is_some_and(|t| (1000.0..1010.0).contains(t)), "first alarm {:?}", f.first());
 }
+
+/// A receiver's velocity (this simulated one's is not late) at 1 Hz needs the DR's second to
+/// half a second past its fix: the pair is judged at the fix's own epoch on the DR's last
+/// second (the shift counted as the delay's uncertainty), not a whole epoch later (css_canedge,
+/// its velocity 0.38 s late: every pair a second late, every finding too). A spoofed speed
+/// 6 m/s high fires on its third fix's epoch; the clean drive stays silent.
+#[test]
+fn a_pair_due_just_past_the_newest_epoch_is_judged_at_it() {
+    let car = Car { first_stop_s: 2000.0, course: true, ..Car::default() };
+    let quiet = run(&drive(&car, 1300.0, 23));
+    assert!(fired(&quiet).is_empty(), "clean: {:?}", fired(&quiet));
+    let delay = quiet.last().and_then(|x| x.1).map(|x| x.delay_velocity_s);
+    assert!(delay.is_some_and(|d| (-0.1..0.5).contains(&d)), "learnt velocity delay {delay:?}");
+    let spoofed = Car { speed_off: |t| if t >= 1199.5 { 6.0 } else { 0.0 }, ..car };
+    let o = run(&drive(&spoofed, 1300.0, 23));
+    let f = fired(&o);
+    assert!(f.first().is_some_and(|t| (1199.5..1202.5).contains(t)), "first alarm {:?}", f.first());
+}

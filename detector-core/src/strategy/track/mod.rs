@@ -112,6 +112,16 @@ const PAIR_S: f32 = 1.0;
 /// how far behind the newest ready entry a pair may be, seconds (older ones are skipped).
 const PAIRS_PER_EPOCH: usize = 2;
 const PAIR_BACKLOG_S: f32 = 2.0;
+/// A pair whose DR second would end at most this long after the newest epoch is judged now,
+/// seconds, on the DR's newest second carried forward at its change since the second before
+/// (see `pair`); the DR's change of acceleration since the pair before, times the shift, is
+/// added to the pair's variance (the carried second's error). At a 1 Hz epoch rate the DR between epochs is
+/// an interpolation anyway, and waiting for the shift's share of the next step cost a whole
+/// second: a receiver's velocity centred
+/// 0.38 s late (css_canedge) needs the DR to 0.12 s past its fix, and a logger's 1 Hz fixes
+/// stamped 0.96 s apart under vehicle signals 1 s late (sddi_commuter) need it 0.04 s past
+/// the next.
+const PAIR_EARLY_S: f32 = 0.5;
 /// Calibration pairs are taken at most this often, seconds (their cost is one pair per delay
 /// candidate).
 const LEARN_EVERY_S: f32 = 0.45;
@@ -161,6 +171,8 @@ struct Pair {
     d: (f32, f32),
     /// The receiver reported the velocity (else it is a position difference).
     reported: bool,
+    /// How much earlier than the delay says the DR's second ends, seconds (see `pair`).
+    early: f32,
 }
 
 /// The streaming track check. See the module documentation.
@@ -191,8 +203,10 @@ pub struct TrackCheck {
     vel: VelocityTest,
     /// The previous pair's predicted velocity (its time, value): the DR's acceleration.
     last_pred: Option<(f32, (f32, f32))>,
-    /// The last judged pair's across-track prediction variance from the delay's uncertainty,
-    /// (m/s)^2: its course is that much less certain as a rotation measurement.
+    /// The DR's acceleration at the previous pair: its change is a carried pair's error.
+    last_acc: (f32, f32),
+    /// The last judged pair's across-track prediction variance from the delay's uncertainty (and a
+    /// carried pair's shift), (m/s)^2: its course is that much less certain as a rotation measurement.
     last_delay_var_across: f32,
     /// When the velocity test last judged a pair (stretch time).
     last_judged_t: f32,
@@ -260,6 +274,7 @@ impl TrackCheck {
             quiet_sigma: vel.sigma(),
             vel,
             last_pred: None,
+            last_acc: (0.0, 0.0),
             last_delay_var_across: 0.0,
             last_judged_t: f32::NEG_INFINITY,
             vel_blind: None,
@@ -434,6 +449,7 @@ impl TrackCheck {
         self.last_pair_t = f32::NEG_INFINITY;
         self.last_learn_t = f32::NEG_INFINITY;
         self.last_pred = None;
+        self.last_acc = (0.0, 0.0);
         self.last_judged_t = f32::NEG_INFINITY;
         self.vel_blind = None;
         self.vi_since = f32::INFINITY;
@@ -759,31 +775,46 @@ impl TrackCheck {
 
     /// The velocity pair of history entry `e`, the DR's velocity taken `tau` earlier: the
     /// receiver's velocity against the DR's over a second centred on it, or both position
-    /// differences over the second before it. `None` across a bridged gap.
+    /// differences over the second before it. Where that second ends after the newest epoch
+    /// (`now`; by `early`, at most [`PAIR_EARLY_S`], see `next_pair`), the DR's newest second
+    /// is carried forward by `early` at its change since the second before (a steady turn or
+    /// braking is then exact: the newest second alone was off by the acceleration times
+    /// `early`, the same way at every pair of a bend, which a window adds up). `None` across a
+    /// bridged gap.
     fn pair(&self, e: Entry, tau: f32, now: f32) -> Option<Pair> {
-        let (g, d0, d1) = if e.has_velocity() {
-            let c = e.t - tau;
-            (e.v, self.dr_at(c - 0.5 * PAIR_S, now)?, self.dr_at(c + 0.5 * PAIR_S, now)?)
+        let lead = if e.has_velocity() { 0.5 * PAIR_S } else { 0.0 };
+        let end = e.t - tau + lead;
+        let early = if end > now { end - now } else { 0.0 };
+        let g = if e.has_velocity() {
+            e.v
         } else {
             let s = self.hist.at(e.t - PAIR_S)?;
-            let g = scale2(sub(e.g, s.g), 1.0 / PAIR_S);
-            (g, self.dr_at(e.t - tau - PAIR_S, now)?, self.dr_at(e.t - tau, now)?)
+            scale2(sub(e.g, s.g), 1.0 / PAIR_S)
         };
+        let end = end - early;
+        let (d0, d1) = (self.dr_at(end - PAIR_S, now)?, self.dr_at(end, now)?);
         if d1.u != d0.u {
             return None;
         }
-        Some(Pair { t: e.t, g, d: scale2(sub(d1.d, d0.d), 1.0 / PAIR_S), reported: e.has_velocity() })
+        let mut d = sub(d1.d, d0.d);
+        if early > 0.0 {
+            let before = self.dr_at(end - 2.0 * PAIR_S, now).filter(|b| b.u == d0.u)?;
+            let change = sub(d, sub(d0.d, before.d));
+            d = (d.0 + change.0 * early / PAIR_S, d.1 + change.1 * early / PAIR_S);
+        }
+        Some(Pair { t: e.t, g, d: scale2(d, 1.0 / PAIR_S), reported: e.has_velocity(), early })
     }
 
     /// The next velocity pair to judge: the oldest entry not judged yet whose DR velocity at
-    /// the delay in use is known by now, and not older than [`PAIR_BACKLOG_S`] before that
-    /// limit. Oldest first: with the vehicle signals late, a 1 Hz fix often becomes ready only
-    /// with the next one, and taking the newest would drop every other fix.
+    /// the delay in use is known by now, or would be within [`PAIR_EARLY_S`], and not older
+    /// than [`PAIR_BACKLOG_S`] before that limit. Oldest first: with the vehicle signals late,
+    /// a 1 Hz fix often becomes ready only with the next one, and taking the newest would drop
+    /// every other fix.
     fn next_pair(&mut self, t: f32) -> Option<Pair> {
         let reported = self.hist.back().is_some_and(Entry::has_velocity);
         let tau = self.cal.delay_s(if reported { Source::Velocity } else { Source::Position });
         let lead = if reported { 0.5 * PAIR_S } else { 0.0 };
-        let limit = t.min(t + tau - lead);
+        let limit = t.min(t + tau - lead + PAIR_EARLY_S);
         let e = self.hist.oldest_between(self.last_pair_t.max(limit - PAIR_BACKLOG_S), limit)?;
         self.last_pair_t = e.t;
         self.pair(e, tau, t)
@@ -794,8 +825,9 @@ impl TrackCheck {
     ///
     /// The prediction's variance: the scale's uncertainty times the speed, the frame rotation's
     /// times the speed (across), and the delay's times the DR's acceleration along and across
-    /// (a delay known to 0.1 s is 0.2 m/s wrong while braking at 2 m/s^2), and the wheel
-    /// speed's rounding, `rounding` ((m/s)^2), along.
+    /// (a delay known to 0.1 s is 0.2 m/s wrong while braking at 2 m/s^2), a carried pair's
+    /// change of acceleration times its shift (see `pair`), and the wheel speed's rounding,
+    /// `rounding` ((m/s)^2), along.
     fn residuals(&mut self, p: &Pair, rounding: f32) -> [Option<(f32, f32)>; 2] {
         let vc = self.cfg.velocity;
         let sd = self.cal.scale_sd(self.quiet_sigma[0], vc.kappa_s);
@@ -809,6 +841,10 @@ impl TrackCheck {
             _ => (0.0, 0.0),
         };
         self.last_pred = Some((p.t, pred));
+        // A pair carried forward by `early` (see `pair`) is off by the acceleration's change
+        // times it.
+        let jerk = scale2(sub(acc, self.last_acc), p.early);
+        self.last_acc = acc;
         let sp = libm::sqrtf(norm2(pred));
         if sp.is_nan() || sp < if p.reported { velocity::MIN_SPEED_REPORTED_MPS } else { vc.min_speed_mps } {
             return [None, None];
@@ -817,14 +853,15 @@ impl TrackCheck {
         let tau_sd = self.cal.delay_sd_s(if p.reported { Source::Velocity } else { Source::Position });
         let a_along = acc.0 * u.0 + acc.1 * u.1;
         let a_across = u.0 * acc.1 - u.1 * acc.0;
-        let va = (sd * sp) * (sd * sp) + (a_along * tau_sd) * (a_along * tau_sd) + rounding;
-        self.last_delay_var_across = (a_across * tau_sd) * (a_across * tau_sd);
+        let (j_along, j_across) = (jerk.0 * u.0 + jerk.1 * u.1, u.0 * jerk.1 - u.1 * jerk.0);
+        let va = (sd * sp) * (sd * sp) + (a_along * tau_sd) * (a_along * tau_sd) + j_along * j_along + rounding;
+        self.last_delay_var_across = (a_across * tau_sd) * (a_across * tau_sd) + j_across * j_across;
         match self.rot() {
             Some(rot) => {
                 let r = sub(p.g, pred);
                 let along = r.0 * u.0 + r.1 * u.1;
                 let across = u.0 * r.1 - u.1 * r.0;
-                let vc_ = rot.var_theta() * sp * sp + (a_across * tau_sd) * (a_across * tau_sd);
+                let vc_ = rot.var_theta() * sp * sp + self.last_delay_var_across;
                 [Some((along, va)), (sp >= vc.min_speed_across_mps && self.aligned_frame()).then_some((across, vc_))]
             }
             None => [Some((libm::sqrtf(norm2(p.g)) - sp, va)), None],
