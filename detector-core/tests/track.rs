@@ -594,7 +594,7 @@ fn a_receiver_reporting_speed_is_judged_at_a_crawl() {
 
 /// A receiver's velocity (this simulated one's is not late) at 1 Hz needs the DR's second to
 /// half a second past its fix: the pair is judged at the fix's own epoch on the DR's last
-/// second (the shift counted as the delay's uncertainty), not a whole epoch later (css_canedge,
+/// second carried forward at its last change, not a whole epoch later (css_canedge,
 /// its velocity 0.38 s late: every pair a second late, every finding too). A spoofed speed
 /// 6 m/s high fires on its third fix's epoch; the clean drive stays silent.
 #[test]

@@ -115,12 +115,12 @@ const PAIR_BACKLOG_S: f32 = 2.0;
 /// A pair whose DR second would end at most this long after the newest epoch is judged now,
 /// seconds, on the DR's newest second carried forward at its change since the second before
 /// (see `pair`); the DR's change of acceleration since the pair before, times the shift, is
-/// added to the pair's variance (the carried second's error). At a 1 Hz epoch rate the DR between epochs is
-/// an interpolation anyway, and waiting for the shift's share of the next step cost a whole
-/// second: a receiver's velocity centred
-/// 0.38 s late (css_canedge) needs the DR to 0.12 s past its fix, and a logger's 1 Hz fixes
-/// stamped 0.96 s apart under vehicle signals 1 s late (sddi_commuter) need it 0.04 s past
-/// the next.
+/// added to the pair's variance (the carried second's error). At a 1 Hz epoch rate the DR
+/// between epochs is an interpolation anyway, and waiting for the shift's share of the next
+/// step cost a whole second: a receiver's velocity centred 0.38 s late (css_canedge) needs the
+/// DR to 0.12 s past its fix, and a logger's 1 Hz fixes stamped 0.96 s apart under vehicle
+/// signals 1 s late (sddi_commuter) need it 0.04 s past the next. At 10 Hz the newest fix is
+/// judged before the history (one entry per 0.19 s) overwrites it.
 const PAIR_EARLY_S: f32 = 0.5;
 /// Calibration pairs are taken at most this often, seconds (their cost is one pair per delay
 /// candidate).
@@ -205,8 +205,9 @@ pub struct TrackCheck {
     last_pred: Option<(f32, (f32, f32))>,
     /// The DR's acceleration at the previous pair: its change is a carried pair's error.
     last_acc: (f32, f32),
-    /// The last judged pair's across-track prediction variance from the delay's uncertainty (and a
-    /// carried pair's shift), (m/s)^2: its course is that much less certain as a rotation measurement.
+    /// The last judged pair's across-track prediction variance from the delay's uncertainty
+    /// (and a carried pair's shift), (m/s)^2: its course is that much less certain as a
+    /// rotation measurement.
     last_delay_var_across: f32,
     /// When the velocity test last judged a pair (stretch time).
     last_judged_t: f32,

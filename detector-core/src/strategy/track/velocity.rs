@@ -48,9 +48,9 @@
 //! [`GROSS_SLOW_MPS`] for [`GROSS_SLOW_S`], fire at once (a drift of metres per second, a
 //! frozen position: the smaller the run, the longer it must last). Every fix is judged, oldest
 //! first, once the DR's velocity at the learnt delay is known for it (none is skipped when the
-//! vehicle signals are late), or would be within half a second: then on the DR's newest second,
-//! the shift added to the delay's uncertainty (a 1 Hz receiver's pair otherwise waits a whole
-//! epoch for a tenth of a second of the next step).
+//! vehicle signals are late), or would be within half a second: then on the DR's newest second
+//! carried forward at its last change (a 1 Hz receiver's pair otherwise waits a whole epoch for
+//! a tenth of a second of the next step).
 //! No window is shorter than 10 s: the receivers and cars of our data disagree by 2 m/s for up
 //! to three fixes and by 0.6 m/s for up to ten seconds on their own (css_canedge: the OBD speed
 //! held for 13 s while GNSS slowed), which a shorter window cannot tell from a drift.
