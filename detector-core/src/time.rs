@@ -4,23 +4,17 @@
 //! them is a call into the compiler's soft-float library (`__aeabi_dcmplt`, some thirty
 //! instructions), and the paths that run once per CAN frame compare times several times. For
 //! numbers that are not NaN, the order of `f64` values is the order of their bits read as
-//! sign and magnitude, which integer instructions compare in a handful (`f64::total_cmp` does
-//! the same). [`before`] is `a < b` exactly, zeros of either sign included, for every pair that
-//! is not NaN.
+//! sign and magnitude, which integer instructions compare in a handful (`f64::total_cmp`, which
+//! [`before`] uses). [`before`] is `a < b` exactly, zeros of either sign included, for every
+//! pair that is not NaN.
 
 /// `a < b`, by the bits: exactly `<` for every pair of `f64` that is not NaN (the times this
 /// crate compares are checked finite where they enter). A NaN is ordered by its bits, as in
 /// `f64::total_cmp`: never a panic, and no caller here meets one.
 #[inline]
 pub fn before(a: f64, b: f64) -> bool {
-    let (x, y) = (a.to_bits(), b.to_bits());
-    // +0 and -0 are equal.
-    if (x | y) << 1 == 0 {
-        return false;
-    }
-    // Sign and magnitude to a two's complement order (as `f64::total_cmp`).
-    let key = |v: u64| (v ^ (((v as i64 >> 63) as u64) >> 1)) as i64;
-    key(x) < key(y)
+    // `total_cmp` orders -0 before +0; `<` calls them equal.
+    (a.to_bits() | b.to_bits()) << 1 != 0 && a.total_cmp(&b).is_lt()
 }
 
 #[cfg(test)]
