@@ -171,7 +171,9 @@ impl DelaySet {
         }
         d
     }
-    /// The candidate whose fit explains the most (ties keep the one in use).
+    /// The candidate whose fit explains the most (ties keep the one in use). Not inlined: one
+    /// copy for learning and for the delay's uncertainty.
+    #[inline(never)]
     fn free(&self) -> usize {
         self.fits
             .iter()
@@ -258,12 +260,41 @@ impl Calibration {
         let sd = libm::sqrtf(sigma * sigma * kappa.max(1.0) / b) / self.scale.max(0.5);
         if sd.is_finite() { sd.clamp(0.001, 0.05) } else { 0.05 }
     }
-    /// The delay's uncertainty, seconds: 0.5 s before any data, shrinking with the square root
-    /// of the minutes learnt (the fits resolve the delay from the accelerations in them) to
-    /// 0.1 s.
-    pub fn delay_sd_s(&self, src: Source) -> f32 {
-        let minutes = self.set(src).learnt_s.max(if self.stored.is_some() { self.learnt_s } else { 0.0 }) / 60.0;
-        if minutes <= 2.0 { 0.5 } else { (0.5 * libm::sqrtf(2.0 / minutes)).clamp(0.1, 0.5) }
+    /// The delay's uncertainty, seconds, never below 0.1 s (a delay is the model of a filter,
+    /// not a constant) nor above 0.5 s: 0.5 s for a first drive's first two minutes; then the
+    /// smaller of
+    /// - the fits' own: the delay is resolved by the accelerations in them, and how well is the
+    ///   curvature of what the candidates' fits explain around the one in use, `c` in
+    ///   `E(tau) = E_best - c (tau - tau_best)^2` ((m/s)^2 s per s^2), against the residual's
+    ///   noise `sigma` (m/s) correlated over `kappa` seconds: `sqrt(sigma^2 kappa / c)`, with
+    ///   the distance to the candidate the fits alone prefer added (a calibrated delay moves
+    ///   one candidate per dwell);
+    /// - 0.5 s shrinking with the square root of the minutes learnt (a stored record's
+    ///   included) to 0.1 s after 50 minutes.
+    ///
+    /// A braking car's velocity is wrong by its deceleration times the delay's error, so an
+    /// uncertainty left at the minutes' 0.4 s after five minutes of town driving (css_canedge)
+    /// held a drift of 0.5 m/s under 0.6 m/s of the prediction's own error at every stop.
+    #[inline(never)]
+    pub fn delay_sd_s(&self, src: Source, sigma: f32, kappa: f32) -> f32 {
+        let set = self.set(src);
+        let minutes = set.learnt_s.max(if self.stored.is_some() { self.learnt_s } else { 0.0 }) / 60.0;
+        if minutes <= 2.0 {
+            return 0.5;
+        }
+        let by_time = 0.5 * libm::sqrtf(2.0 / minutes);
+        let e = |k: Option<usize>| k.and_then(|k| set.fits.get(k)).map(DelayFit::explained);
+        let by_fit = match (e(set.best.checked_sub(1)), e(Some(set.best)), e(Some(set.best + 1))) {
+            (Some(lo), Some(mid), Some(hi)) => {
+                let c = (2.0 * mid - lo - hi) / (2.0 * DELAY_STEP_S * DELAY_STEP_S);
+                let off = delay_of(set.free()) - delay_of(set.best);
+                let var = sigma * sigma * kappa.max(1.0) / c + off * off;
+                if c > 0.0 && var.is_finite() { libm::sqrtf(var) } else { 0.5 }
+            }
+            _ => 0.5,
+        };
+        let sd = by_time.min(by_fit);
+        if sd.is_finite() { sd.clamp(0.1, 0.5) } else { 0.5 }
     }
     /// Learnt enough to judge small drifts: a stored record, or `warmup_s` of this drive.
     pub fn calibrated(&self) -> bool {
@@ -496,6 +527,33 @@ mod tests {
         feed(&mut c, 0.99 * 1.03, 600);
         assert!(c.scale() <= 0.99 * 1.01 + 1e-6, "scale {}", c.scale());
         assert_eq!(c.contradiction(), Some(Contradiction::Scale));
+    }
+
+    #[test]
+    fn the_delays_uncertainty_is_what_the_accelerations_resolve() {
+        // Five minutes of a car speeding up and braking (15 +- 5 m/s over 20 s, up to
+        // 1.6 m/s^2) whose wheels are 0.5 s late, and five at a constant 15 m/s.
+        let v = |t: f32| 15.0 + 5.0 * libm::sinf(core::f32::consts::TAU * t / 20.0);
+        let (mut moving, mut steady) = (Calibration::new(CalLimits::default()), Calibration::new(CalLimits::default()));
+        for s in 0..300 {
+            let t = s as f32;
+            let mut d = [(0.0f32, 0.0f32); DELAYS];
+            for (k, x) in d.iter_mut().enumerate() {
+                *x = (0.0, v(t - delay_of(k) - 0.5));
+            }
+            moving.learn(Source::Velocity, (0.0, v(t)), &d, (1.0, 0.0), 1.0, 0.15, 5.0);
+            steady.learn(Source::Velocity, (0.0, 15.0), &[(0.0, 15.0); DELAYS], (1.0, 0.0), 1.0, 0.15, 5.0);
+        }
+        assert_eq!(moving.delay_s(Source::Velocity), -0.5);
+        // The fits resolve it to well under the floor: the floor.
+        assert_eq!(moving.delay_sd_s(Source::Velocity, 0.15, 5.0), 0.1);
+        // Without accelerations nothing resolves it: the minutes' 0.5 sqrt(2 / 5) s.
+        let sd = steady.delay_sd_s(Source::Velocity, 0.15, 5.0);
+        assert!((sd - 0.316).abs() < 0.001, "sd {sd}");
+        // A first drive's first two minutes: 0.5 s.
+        let mut young = Calibration::new(CalLimits::default());
+        young.learn(Source::Velocity, (0.0, 15.0), &[(0.0, 15.0); DELAYS], (1.0, 0.0), 100.0, 0.15, 5.0);
+        assert_eq!(young.delay_sd_s(Source::Velocity, 0.15, 5.0), 0.5);
     }
 
     #[test]

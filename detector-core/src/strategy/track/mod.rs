@@ -851,7 +851,7 @@ impl TrackCheck {
             return [None, None];
         }
         let u = scale2(pred, 1.0 / sp);
-        let tau_sd = self.cal.delay_sd_s(if p.reported { Source::Velocity } else { Source::Position });
+        let tau_sd = self.cal.delay_sd_s(if p.reported { Source::Velocity } else { Source::Position }, self.quiet_sigma[0], vc.kappa_s);
         let a_along = acc.0 * u.0 + acc.1 * u.1;
         let a_across = u.0 * acc.1 - u.1 * acc.0;
         let (j_along, j_across) = (jerk.0 * u.0 + jerk.1 * u.1, u.0 * jerk.1 - u.1 * jerk.0);
