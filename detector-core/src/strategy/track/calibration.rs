@@ -145,6 +145,9 @@ impl DelayFit {
 struct DelaySet {
     fits: [DelayFit; DELAYS],
     best: usize,
+    /// The candidate whose fit explains the most, as of the last learning (the fits change
+    /// nowhere else): read per judged pair, so not searched again there.
+    free: usize,
     /// Seconds since the delay last moved (once calibrated), and seconds learnt.
     dwell_s: f32,
     learnt_s: f32,
@@ -156,22 +159,22 @@ struct DelaySet {
 
 impl DelaySet {
     fn new() -> Self {
-        DelaySet { fits: [DelayFit::default(); DELAYS], best: ZERO, dwell_s: 0.0, learnt_s: 0.0, anchor: None, own: DelayFit::default(), own_s: 0.0 }
+        DelaySet { fits: [DelayFit::default(); DELAYS], best: ZERO, free: ZERO, dwell_s: 0.0, learnt_s: 0.0, anchor: None, own: DelayFit::default(), own_s: 0.0 }
     }
     /// A set that starts from a stored delay and scale: every candidate with the stored fit's
     /// weight (a speed of 15 m/s for `weight_s`), so this drive's data decides between them.
     fn stored(delay_s: f32, scale: f32, weight_s: f32) -> Self {
         let mut d = DelaySet::new();
         d.best = candidate(delay_s);
+        // Every candidate's fit alike: the search keeps the one in use.
+        d.free = d.best;
         d.anchor = Some(d.best);
         let b = weight_s * 225.0;
         fill(&mut d.fits, DelayFit { a: (scale * b, 0.0), b });
         d
     }
-    /// The candidate whose fit explains the most (ties keep the one in use). Not inlined: one
-    /// copy for learning and for the delay's uncertainty.
-    #[inline(never)]
-    fn free(&self) -> usize {
+    /// The candidate whose fit explains the most (ties keep the one in use).
+    fn search(&self) -> usize {
         self.fits
             .iter()
             .enumerate()
@@ -246,7 +249,7 @@ impl Calibration {
     }
     /// The delay the fits alone say (the candidate that explains most), seconds.
     pub fn free_delay_s(&self, src: Source) -> f32 {
-        delay_of(self.set(src).free())
+        delay_of(self.set(src).free)
     }
     /// The scale in use.
     pub fn scale(&self) -> f32 {
@@ -293,7 +296,7 @@ impl Calibration {
         let by_fit = match (e(set.best.checked_sub(1)), e(Some(set.best)), e(Some(set.best + 1))) {
             (Some(lo), Some(mid), Some(hi)) => {
                 let c = (2.0 * mid - lo - hi) / (2.0 * DELAY_STEP_S * DELAY_STEP_S);
-                let off = delay_of(set.free()) - delay_of(set.best);
+                let off = delay_of(set.free) - delay_of(set.best);
                 let var = sigma * sigma * kappa.max(1.0) / c + off * off;
                 if c > 0.0 && var.is_finite() { libm::sqrtf(var) } else { 0.5 }
             }
@@ -351,7 +354,8 @@ impl Calibration {
         }
         set.learnt_s += dt;
         set.dwell_s += dt;
-        let free = set.free();
+        let free = set.search();
+        set.free = free;
         let span = libm::roundf(lim.delay_bound_s / DELAY_STEP_S).max(0.0) as usize;
         if !calibrated {
             set.best = free;
