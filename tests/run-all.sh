@@ -75,10 +75,12 @@ fi
 # The Cortex-M4 cost targets (deterministic instruction counts under -icount, so a hard check).
 lstm_step=$(echo "$qemu_out" | sed -n 's/^instructions per LSTM step.* median \([0-9]*\) .*/\1/p')
 epoch=$(echo "$qemu_out" | sed -n 's/^instructions per epoch: .* median \([0-9]*\) .*/\1/p')
-if [ -z "$lstm_step" ] || [ -z "$epoch" ] || [ "$lstm_step" -gt 210000 ] || [ "$epoch" -gt 300000 ]; then
-  echo "Cortex-M4 cost targets: LSTM step '$lstm_step' (<= 210000), epoch median '$epoch' (<= 300000)" >&2; exit 1
+# A car's next drive (started from a stored calibration) runs paths a first minute does not.
+stored=$(echo "$qemu_out" | sed -n 's/^instructions per epoch (from a stored calibration): .* median \([0-9]*\) .*/\1/p')
+if [ -z "$lstm_step" ] || [ -z "$epoch" ] || [ -z "$stored" ] || [ "$lstm_step" -gt 210000 ] || [ "$epoch" -gt 300000 ] || [ "$stored" -gt 300000 ]; then
+  echo "Cortex-M4 cost targets: LSTM step '$lstm_step' (<= 210000), epoch median '$epoch' and from a stored calibration '$stored' (<= 300000)" >&2; exit 1
 fi
-echo "Cortex-M4 cost: LSTM step $lstm_step instructions (<= 210000), epoch median $epoch (<= 300000)"
+echo "Cortex-M4 cost: LSTM step $lstm_step instructions (<= 210000), epoch median $epoch and from a stored calibration $stored (<= 300000)"
 host_out=$(cargo run -q --release -p host-sim -- digest)
 echo "$host_out" | tail -1
 q=$(echo "$qemu_out" | grep '^verdict digest:')
