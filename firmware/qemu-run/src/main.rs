@@ -391,6 +391,10 @@ fn main() -> ! {
     // A car's next drive: the same scenarios started from a stored calibration, whose
     // calibrated paths a first drive's first minute does not reach.
     let record = stored_record();
+    if record.plausible().is_err() {
+        // The store would refuse it and the run would measure a first drive again.
+        fail("the stored calibration for the cost run is not plausible");
+    }
     epoch_costs(pipe, &input, cfg, templates, &predictor, Some(&record), &mut clock, &mut costs);
     report("instructions per epoch (from a stored calibration)", &mut costs);
     if let Predictor::Lstm(mut l) = predictor {
