@@ -5,7 +5,7 @@
 
 use super::calibration::{self, Calibration, Source, DELAYS, DELAY_MIN_S, DELAY_STEP_S};
 use super::history::Entry;
-use super::plane::{cis, cmul, norm2, scale2, sub};
+use super::plane::{cis, cmul, conj, norm2, scale2, sub};
 use super::state::TrackCheck;
 use super::velocity;
 
@@ -129,16 +129,13 @@ impl TrackCheck {
         }
         let u = scale2(pred, 1.0 / sp);
         let tau_sd = self.cal.delay_sd_s(if p.reported { Source::Velocity } else { Source::Position }, self.quiet_sigma[0], vc.kappa_s);
-        let a_along = acc.0 * u.0 + acc.1 * u.1;
-        let a_across = u.0 * acc.1 - u.1 * acc.0;
-        let (j_along, j_across) = (jerk.0 * u.0 + jerk.1 * u.1, u.0 * jerk.1 - u.1 * jerk.0);
+        // Along and across the predicted track: `x conj(u)`.
+        let ((a_along, a_across), (j_along, j_across)) = (cmul(acc, conj(u)), cmul(jerk, conj(u)));
         let va = (sd * sp) * (sd * sp) + (a_along * tau_sd) * (a_along * tau_sd) + j_along * j_along + rounding;
         self.last_delay_var_across = (a_across * tau_sd) * (a_across * tau_sd) + j_across * j_across;
         match self.rot() {
             Some(rot) => {
-                let r = sub(p.g, pred);
-                let along = r.0 * u.0 + r.1 * u.1;
-                let across = u.0 * r.1 - u.1 * r.0;
+                let (along, across) = cmul(sub(p.g, pred), conj(u));
                 let vc_ = rot.var_theta() * sp * sp + self.last_delay_var_across;
                 [Some((along, va)), (sp >= vc.min_speed_across_mps && self.aligned_frame()).then_some((across, vc_))]
             }
