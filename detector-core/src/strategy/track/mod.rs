@@ -34,8 +34,8 @@
 //! floors `s0`. All of it learns only while nothing is suspicious, within bounds and rates once
 //! calibrated, and is kept across drives as a [`calibration::Record`]. One thing is not learnt
 //! that way: a receiver that reports its velocity says how noisy its position is now (its
-//! position against the integral of its own velocity), and the 30 s window takes that, up to
-//! 12 m, where it is above the learnt noise (`TrackCheck::gnss_noise`).
+//! position against the integral of its own velocity over each window), and the windows take
+//! that, up to 12 m, where it is above the learnt noise (`TrackCheck::gnss_noise`).
 //!
 //! # The position windows' decision
 //! `z = |e| / sigma(L)`. For a two-dimensional Gaussian `e`, `P(z > c) = exp(-c^2)`; with about
@@ -96,7 +96,7 @@ use crate::sample::Sample;
 
 /// Windows shorter than this (metres driven) teach nothing about rotation.
 const MIN_LEARN_DIST_M: f32 = 30.0;
-/// The GNSS's own position noise over the 30 s window (see `TrackCheck::gnss_noise`): at most
+/// The GNSS's own position noise over each window (see `TrackCheck::gnss_noise`): at most
 /// this much, metres, is taken as noise; it rises with this time constant and falls with the
 /// second, seconds.
 const GNSS_NOISE_CAP_M: f32 = 12.0;
@@ -178,10 +178,16 @@ impl TrackCheck {
         let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
         let acc = s.gnss_h_acc.get().filter(|a| a.is_finite() && *a > 0.0).map_or(0.0, |a| 2.0 * a * a);
         let wins = [self.window(t, 0, acc), self.window(t, 1, acc)];
-        if let Some(y) = wins[1].map(|w| w.gnss_e2).filter(|y| y.is_finite()) {
-            let y = y.min(GNSS_NOISE_CAP_M * GNSS_NOISE_CAP_M);
-            let k = (dt / if y > self.gnss_noise { GNSS_NOISE_RISE_S } else { GNSS_NOISE_FALL_S }).clamp(0.0, 1.0);
-            self.gnss_noise += (y - self.gnss_noise) * k;
+        // The 10 s window's rises only while that window is within its threshold (see
+        // `gnss_noise`).
+        for (wi, (n, w)) in self.gnss_noise.iter_mut().zip(&wins).enumerate() {
+            let within = |w: &Window| wi > 0 || w.z <= self.c;
+            if let Some(y) = w.filter(within).map(|w| w.gnss_e2).filter(|y| y.is_finite()) {
+                let y = y.min(GNSS_NOISE_CAP_M * GNSS_NOISE_CAP_M);
+                let tau = if y > *n { GNSS_NOISE_RISE_S } else { GNSS_NOISE_FALL_S };
+                let k = (dt / tau).clamp(0.0, 1.0);
+                *n += (y - *n) * k;
+            }
         }
         let moving = wheel >= c.min_speed_mps;
         // The position windows judge with a gyro only: without one the DR's direction is the

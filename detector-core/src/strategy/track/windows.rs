@@ -23,8 +23,8 @@ pub(super) struct Window {
     /// The window spans a bridged gap: it is judged, nothing is learnt from it.
     pub(super) bridged: bool,
     pub(super) z: f32,
-    /// The 30 s window's: the receiver's position against its own velocity over the window,
-    /// squared, m^2 (NaN where it reports none, and for the 10 s window).
+    /// The receiver's position against its own velocity over the window, squared, m^2 (NaN
+    /// where it reports none).
     pub(super) gnss_e2: f32,
 }
 
@@ -54,8 +54,10 @@ impl TrackCheck {
         let e2 = norm2(e);
         let (s2, k2) = self.noise_params(wi);
         let var0 = s2.max(gnss_acc_var) + k2 * l * l;
-        // The GNSS's own noise where it is above what was learnt (see `gnss_noise`).
-        let own = if wi == 0 { 0.0 } else { self.gnss_noise - s2.max(gnss_acc_var) };
+        // The GNSS's own noise where it is above what was learnt (see `gnss_noise`): the 10 s
+        // window's above its whole learnt noise.
+        let learnt = if wi == 0 { var0 } else { s2.max(gnss_acc_var) };
+        let own = self.gnss_noise.get(wi).copied().unwrap_or(0.0) - learnt;
         let var = var0 + own.max(0.0) + self.rot_var() * l * l + extra;
         if !(l.is_finite() && e2.is_finite() && var.is_finite()) {
             return None;
@@ -64,7 +66,8 @@ impl TrackCheck {
         // Over the window's own entries: shifting the velocity by its learnt lag against the
         // position took two more history searches per epoch and changed no figure of `eval`
         // (3 of 817 scenarios' verdict streams).
-        let gnss_e2 = if wi == 1 && ts >= self.vi_since { norm2(sub(g, sub(end.vi, start.vi))) } else { f32::NAN };
+        let gnss_e2 =
+            if ts >= self.vi_since { norm2(sub(g, sub(end.vi, start.vi))) } else { f32::NAN };
         Some(Window { g, d, l, e, e2, var0, var, bridged: extra > 0.0, z, gnss_e2 })
     }
 }
