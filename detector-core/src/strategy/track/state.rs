@@ -70,8 +70,9 @@ pub struct TrackCheck {
     /// falls within half a minute, and is at most `GNSS_NOISE_CAP_M` squared. It is the GNSS's
     /// alone, so a spoofer who moves position and velocity together (every drift) does not
     /// move it; one who moves the position alone buys at most that much slack in the 30 s
-    /// window, none in the 10 s window, whose own noise rises only while that window is within
-    /// its threshold (a position-only step puts it beyond at once), nor in the velocity test.
+    /// window, and in the 10 s window only what a wander that keeps that window within its
+    /// threshold teaches (its own noise rises only then: a position-only step puts it beyond
+    /// at once), none in the velocity test.
     /// The 10 s window takes only what exceeds its whole learnt noise (`s0^2 + k^2 L^2`): on a
     /// quiet receiver this noise is about that size, and on top of it cost wrong turns a
     /// second on css_canedge. Before the 10 s window took it, css_canedge entering town under
