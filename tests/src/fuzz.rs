@@ -574,6 +574,8 @@ fn store(data: &[u8], record: Option<&detector_core::wire::calibration::Record>)
         noise_k: [0.01, 0.01],
         velocity_sigma_mps: [0.2, 0.3],
         nominal_dt_s: 1.0,
+        anchor_scale: 1.0,
+        anchor_delay_s: [0.5, f32::NAN],
     });
     if block_on(s.save(&r)).is_ok() {
         match block_on(s.load()) {

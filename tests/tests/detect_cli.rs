@@ -184,3 +184,51 @@ fn the_calibration_file_carries_the_car_across_drives() {
     assert_eq!(status[0]["calibration"], "learning");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A spoofer present on every drive, asking a little more of the wheel-speed scale each time
+/// (GNSS 0.8 % faster than the wheels per drive, within one drive's bound of the record it
+/// starts from), cannot walk the car's calibration: the record keeps the car's anchor, and the
+/// third drive, 1.6 % from it, is reported (sddi_commuter's first three drives, their wheel
+/// speed scaled). Without the anchor the record walked to 1.016 there, with no alarm.
+#[test]
+fn a_spoofer_on_every_drive_cannot_walk_the_calibration() {
+    let Some(d) = data_dir("a_spoofer_on_every_drive_cannot_walk_the_calibration") else { return };
+    let dir = std::env::temp_dir().join(format!("gnss-guard-walk-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("car.ggcr");
+    let mut drives: Vec<_> = std::fs::read_dir(d.join("drives/sddi_commuter")).unwrap().flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "csv")).collect();
+    drives.sort();
+    let mut anchor = None;
+    for (k, src) in drives.iter().take(3).enumerate() {
+        // The wheels 0.8 % slower per drive than the last: the scale GNSS over wheels 0.8 % more.
+        let f = 1.0 + 0.008 * k as f64;
+        let text = std::fs::read_to_string(src).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        let col = header.split(',').position(|c| c == "veh_speed_mps").unwrap();
+        let mut out = String::from(header);
+        out.push('\n');
+        for l in lines {
+            let cells: Vec<String> = l.split(',').enumerate().map(|(i, c)| if i == col && !c.is_empty() { format!("{:.6}", c.parse::<f64>().unwrap() / f) } else { c.to_string() }).collect();
+            out.push_str(&cells.join(","));
+            out.push('\n');
+        }
+        let p = dir.join(format!("drive{k}.csv"));
+        std::fs::write(&p, out).unwrap();
+        let run = host_sim(&["detect", "--json", "--calibration", file.to_str().unwrap(), p.to_str().unwrap()]);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        let stdout = String::from_utf8(run.stdout).unwrap();
+        let last: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+        let rec = detector_core::wire::calibration::Record::decode(&std::fs::read(&file).unwrap()).unwrap();
+        let first = *anchor.get_or_insert(rec.scale);
+        assert_eq!(rec.anchor_scale, first, "drive {k}: the anchor is the first record's");
+        if k < 2 {
+            assert_eq!((last["calibration"]["contradicted"].as_bool(), last["summary"]["alarm"].as_bool()), (Some(false), Some(false)), "drive {k}: {last}");
+        } else {
+            assert_eq!(last["calibration"]["contradicted"], true, "drive {k}: {last}");
+            assert!(rec.scale <= first * 1.0102 && rec.drives == 2, "drive {k}: the record kept, {rec:?}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -2,11 +2,15 @@
 //! car, kept across drives (the board in flash, `host-sim detect --calibration` in a file).
 //!
 //! Little endian, [`RECORD_LEN`] bytes:
-//! `"GGCR" | version u16 = 1 | payload length u16 = 64 |
+//! `"GGCR" | version u16 = 2 | payload length u16 = 76 |
 //! scale f32 | delay of the position f32 | delay of the velocity f32 (NaN: none) | learnt s f32 |
 //! drives u16 | flags u16 = 0 | gyro bias deg/s f32 (NaN: none) | its weight s f32 |
 //! gyro scale error f32 | its sd f32 | s0 m f32 x 2 | k f32 x 2 | velocity sigma m/s f32 x 2 |
-//! nominal epoch s f32 | crc32 u32` (CRC over all bytes before it).
+//! nominal epoch s f32 | anchor scale f32 | anchor delays f32 x 2 (the velocity's NaN: none) |
+//! crc32 u32` (CRC over all bytes before it).
+//!
+//! Version 1 (76 bytes, payload 64) is the same without the anchors; it is still read, its own
+//! scale and delays taken as its anchors, so a car's calibration survives the update.
 //!
 //! [`Record::decode`] refuses a record that is short, of another magic, version or length, whose
 //! CRC does not match, or whose fields are not physically possible ([`Record::plausible`]), and
@@ -17,10 +21,14 @@ use super::le;
 
 /// The record's magic and version.
 pub const MAGIC: &[u8; 4] = b"GGCR";
-/// The record version this build reads and writes.
-pub const VERSION: u16 = 1;
+/// The record version this build writes (it reads version 1 too).
+pub const VERSION: u16 = 2;
 const HEADER: usize = 8;
-const PAYLOAD: usize = 64;
+/// The payload's length, bytes (the header's length field).
+pub const PAYLOAD_LEN: usize = 76;
+const PAYLOAD: usize = PAYLOAD_LEN;
+/// Version 1's payload, bytes: no anchors.
+const PAYLOAD_V1: usize = 64;
 /// The encoded record's length, bytes.
 pub const RECORD_LEN: usize = HEADER + PAYLOAD + 4;
 /// The delays a record may hold, seconds (the track check's candidates).
@@ -56,6 +64,13 @@ pub struct Record {
     pub velocity_sigma_mps: [f32; 2],
     /// The epoch length of the receiver it was learnt with, seconds (noise is the receiver's).
     pub nominal_dt_s: f32,
+    /// The car's anchor: the scale of its first record, which no later drive moves. Every
+    /// drive's scale stays within a bound of it as well as of the record it starts from, so a
+    /// spoofer present on drive after drive cannot walk the calibration a little per drive.
+    pub anchor_scale: f32,
+    /// The delays of the car's first record (the velocity's: of the first record that had one,
+    /// NaN before), the anchor of every later drive's delays.
+    pub anchor_delay_s: [f32; 2],
 }
 
 /// Why a record was refused, and where (a byte offset into it).
@@ -80,6 +95,8 @@ pub enum RecordError {
     },
     /// The CRC over header and payload does not match.
     BadCrc {
+        /// Where the CRC is (after the version's payload).
+        at: usize,
         /// The CRC stored in the record.
         stored: u32,
         /// The CRC of the bytes as read.
@@ -102,17 +119,17 @@ impl RecordError {
             RecordError::BadMagic => 0,
             RecordError::BadVersion { .. } => 4,
             RecordError::BadLength { .. } => 6,
-            RecordError::BadCrc { .. } => HEADER + PAYLOAD,
+            RecordError::BadCrc { at, .. } => at,
             RecordError::Implausible { at, .. } => at,
         }
     }
     /// What was expected there.
     pub fn expected(&self) -> &'static str {
         match self {
-            RecordError::TooShort { .. } => "a calibration record of 76 bytes",
+            RecordError::TooShort { .. } => "a calibration record of 88 bytes (76 in version 1)",
             RecordError::BadMagic => "the magic \"GGCR\"",
-            RecordError::BadVersion { .. } => "version 1",
-            RecordError::BadLength { .. } => "a payload of 64 bytes",
+            RecordError::BadVersion { .. } => "version 2 or 1",
+            RecordError::BadLength { .. } => "a payload of 76 bytes (64 in version 1)",
             RecordError::BadCrc { .. } => "the CRC-32 of the bytes before it",
             RecordError::Implausible { field, .. } => field,
         }
@@ -134,6 +151,8 @@ mod at {
     pub const K: usize = 52;
     pub const SIGMA: usize = 60;
     pub const DT: usize = 68;
+    pub const ANCHOR_SCALE: usize = 72;
+    pub const ANCHOR_DELAY: usize = 76;
 }
 
 /// The wheel-speed scales that are physically possible (a wheel-speed signal 20 % slow or 25 %
@@ -184,6 +203,15 @@ impl Record {
         if !ok(self.nominal_dt_s, 0.01, 10.0) {
             return bad("a nominal epoch between 0.01 and 10 s", at::DT);
         }
+        if !ok(self.anchor_scale, SCALE_MIN, SCALE_MAX) {
+            return bad("an anchor scale between 0.8 and 1.25", at::ANCHOR_SCALE);
+        }
+        if !ok(self.anchor_delay_s[0], -MAX_DELAY_S, MAX_DELAY_S) {
+            return bad("an anchor position delay within 3 s", at::ANCHOR_DELAY);
+        }
+        if !(self.anchor_delay_s[1].is_nan() || ok(self.anchor_delay_s[1], -MAX_DELAY_S, MAX_DELAY_S)) {
+            return bad("an anchor velocity delay within 3 s, or NaN", at::ANCHOR_DELAY + 4);
+        }
         Ok(())
     }
 
@@ -219,6 +247,9 @@ impl Record {
             put(at::SIGMA + 4 * i, &self.velocity_sigma_mps[i].to_le_bytes());
         }
         put(at::DT, &self.nominal_dt_s.to_le_bytes());
+        put(at::ANCHOR_SCALE, &self.anchor_scale.to_le_bytes());
+        put(at::ANCHOR_DELAY, &self.anchor_delay_s[0].to_le_bytes());
+        put(at::ANCHOR_DELAY + 4, &self.anchor_delay_s[1].to_le_bytes());
         let crc = crc32(b.get(..HEADER + PAYLOAD).unwrap_or(&[]));
         if let Some(d) = b.get_mut(HEADER + PAYLOAD..) {
             d.copy_from_slice(&crc.to_le_bytes());
@@ -226,31 +257,39 @@ impl Record {
         b
     }
 
-    /// A record from its bytes (extra bytes after it are ignored), validated.
+    /// A record from its bytes (extra bytes after it are ignored), validated: version 2, or
+    /// version 1 with its own scale and delays as its anchors.
     pub fn decode(b: &[u8]) -> Result<Record, RecordError> {
-        if b.len() < RECORD_LEN {
+        if b.len() < HEADER {
             return Err(RecordError::TooShort { len: b.len() });
         }
         if b.get(..4) != Some(&MAGIC[..]) {
             return Err(RecordError::BadMagic);
         }
         let version = le::u16(b, 4).unwrap_or(0);
-        if version != VERSION {
-            return Err(RecordError::BadVersion { version });
-        }
+        let payload = match version {
+            VERSION => PAYLOAD,
+            1 => PAYLOAD_V1,
+            _ => return Err(RecordError::BadVersion { version }),
+        };
         let length = le::u16(b, 6).unwrap_or(0);
-        if length as usize != PAYLOAD {
+        if length as usize != payload {
             return Err(RecordError::BadLength { length });
         }
-        let stored = le::u32(b, HEADER + PAYLOAD).unwrap_or(0);
-        let computed = crc32(b.get(..HEADER + PAYLOAD).unwrap_or(&[]));
+        if b.len() < HEADER + payload + 4 {
+            return Err(RecordError::TooShort { len: b.len() });
+        }
+        let stored = le::u32(b, HEADER + payload).unwrap_or(0);
+        let computed = crc32(b.get(..HEADER + payload).unwrap_or(&[]));
         if stored != computed {
-            return Err(RecordError::BadCrc { stored, computed });
+            return Err(RecordError::BadCrc { at: HEADER + payload, stored, computed });
         }
         let f = |at: usize| le::f32(b, at).unwrap_or(f32::NAN);
+        let (scale, delay_s) = (f(at::SCALE), [f(at::DELAY), f(at::DELAY + 4)]);
+        let (anchor_scale, anchor_delay_s) = if version == 1 { (scale, delay_s) } else { (f(at::ANCHOR_SCALE), [f(at::ANCHOR_DELAY), f(at::ANCHOR_DELAY + 4)]) };
         let r = Record {
-            scale: f(at::SCALE),
-            delay_s: [f(at::DELAY), f(at::DELAY + 4)],
+            scale,
+            delay_s,
             learnt_s: f(at::LEARNT),
             drives: le::u16(b, at::DRIVES).unwrap_or(0),
             gyro_bias_degps: f(at::BIAS),
@@ -261,6 +300,8 @@ impl Record {
             noise_k: [f(at::K), f(at::K + 4)],
             velocity_sigma_mps: [f(at::SIGMA), f(at::SIGMA + 4)],
             nominal_dt_s: f(at::DT),
+            anchor_scale,
+            anchor_delay_s,
         };
         r.check()?;
         Ok(r)
@@ -285,6 +326,8 @@ mod tests {
             noise_k: [0.011, 0.012],
             velocity_sigma_mps: [0.14, 0.2],
             nominal_dt_s: 1.0,
+            anchor_scale: 0.9951,
+            anchor_delay_s: [0.25, f32::NAN],
         }
     }
 
@@ -317,8 +360,8 @@ mod tests {
             assert!(Record::decode(&c).is_err(), "bit {i}");
         }
         let mut c = b;
-        c[4] = 2;
-        assert_eq!(Record::decode(&c), Err(RecordError::BadVersion { version: 2 }));
+        c[4] = 3;
+        assert_eq!(Record::decode(&c), Err(RecordError::BadVersion { version: 3 }));
         // A well-formed record of an impossible car: refused by field, with its offset.
         let mut r = example();
         r.scale = 1.5;
@@ -328,5 +371,37 @@ mod tests {
         r = example();
         r.noise_k[1] = f32::INFINITY;
         assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 52);
+        r = example();
+        r.anchor_scale = 0.5;
+        assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 72);
+        r = example();
+        r.anchor_delay_s[0] = f32::NAN;
+        assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 76);
+    }
+
+    /// A version 1 record (before the anchors) is read, its own scale and delays its anchors;
+    /// short or with a payload of the other version's length, it is refused.
+    #[test]
+    fn a_version_1_record_is_read_with_its_own_values_as_anchors() {
+        let r = example();
+        let v2 = r.encode();
+        let mut v1 = v2[..HEADER + PAYLOAD_V1 + 4].to_vec();
+        v1[4..6].copy_from_slice(&1u16.to_le_bytes());
+        v1[6..8].copy_from_slice(&(PAYLOAD_V1 as u16).to_le_bytes());
+        let crc = crc32(&v1[..HEADER + PAYLOAD_V1]);
+        v1[HEADER + PAYLOAD_V1..].copy_from_slice(&crc.to_le_bytes());
+        let d = Record::decode(&v1).unwrap();
+        assert_eq!((d.scale, d.anchor_scale, d.anchor_delay_s[0]), (r.scale, r.scale, r.delay_s[0]));
+        assert!(d.anchor_delay_s[1].is_nan());
+        assert_eq!(d.learnt_s, r.learnt_s);
+        // Written back, it is a version 2 record.
+        assert_eq!(&d.encode()[4..6], &VERSION.to_le_bytes());
+        assert_eq!(Record::decode(&v1[..v1.len() - 1]), Err(RecordError::TooShort { len: 75 }));
+        let mut wrong = v1.clone();
+        wrong[6..8].copy_from_slice(&(PAYLOAD as u16).to_le_bytes());
+        assert_eq!(Record::decode(&wrong), Err(RecordError::BadLength { length: PAYLOAD as u16 }));
+        let mut bad = v1;
+        bad[20] ^= 1;
+        assert_eq!(Record::decode(&bad).unwrap_err().offset(), HEADER + PAYLOAD_V1);
     }
 }

@@ -309,6 +309,8 @@ mod tests {
             noise_k: [0.011, 0.012],
             velocity_sigma_mps: [0.14, 0.2],
             nominal_dt_s: 1.0,
+            anchor_scale: 0.99,
+            anchor_delay_s: [0.375, 0.25],
         }
     }
 

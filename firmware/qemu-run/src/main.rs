@@ -92,6 +92,8 @@ fn stored_record() -> Record {
         noise_k: [0.01; 2],
         velocity_sigma_mps: [0.2; 2],
         nominal_dt_s: 0.1,
+        anchor_scale: 1.0,
+        anchor_delay_s: [0.0, 0.0],
     }
 }
 

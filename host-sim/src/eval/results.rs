@@ -437,6 +437,7 @@ fn record_json<S: serde::Serializer>(r: &Option<detector_core::strategy::track::
         "scale": r.scale, "delay_position_s": r.delay_s[0], "delay_velocity_s": f(r.delay_s[1]),
         "learnt_s": r.learnt_s, "drives": r.drives, "gyro_bias_degps": f(r.gyro_bias_degps),
         "gyro_scale_error": r.gyro_scale_error, "noise_s0_m": r.noise_s0_m, "noise_k": r.noise_k,
-        "velocity_sigma_mps": r.velocity_sigma_mps,
+        "velocity_sigma_mps": r.velocity_sigma_mps, "anchor_scale": r.anchor_scale,
+        "anchor_delay_position_s": r.anchor_delay_s[0], "anchor_delay_velocity_s": f(r.anchor_delay_s[1]),
     })).serialize(s)
 }

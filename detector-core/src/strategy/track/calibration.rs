@@ -5,6 +5,12 @@
 //! - **bounded**: a drive that starts from a stored record moves the wheel-speed scale by at
 //!   most [`CalLimits::scale_bound`] and the delay by at most [`CalLimits::delay_bound_s`] from
 //!   it (a tyre's radius changes by tenths of a percent over weeks);
+//! - **anchored**: over all its drives a car's scale stays within [`CalLimits::scale_bound`]
+//!   plus the wear its hours of driving allow ([`CalLimits::wear_per_h`], at most
+//!   [`CalLimits::walk_max`]) of its first record's, and its delays within
+//!   [`CalLimits::delay_bound_s`] of the first record's: a spoofer on drive after drive cannot
+//!   walk the record a bound per drive (0.8 % per drive took sddi_commuter's record from 1.000
+//!   to 1.073 in ten drives, unreported, before the anchor);
 //! - **physical**: every scale stays within [`SCALE_MIN`] to [`SCALE_MAX`], and a first drive's
 //!   starts from a prior of 1 worth [`SCALE_PRIOR_WEIGHT_S`] (its first slow pairs say little);
 //! - **rate-limited** once calibrated: the scale by [`CalLimits::scale_rate_per_s`], the delay by
@@ -74,6 +80,14 @@ pub struct CalLimits {
     pub contradict_after_s: f32,
     /// What a stored record's fit weighs at the start of a drive, seconds of driving.
     pub stored_weight_s: f32,
+    /// How far the scale may move from the car's anchor, relative, per hour of driving
+    /// learnt, beyond [`CalLimits::scale_bound`]: tyre wear (a tread's 6 mm of a 315 mm radius,
+    /// 2 %, over about 50,000 km, 1,000 h) five times over.
+    pub wear_per_h: f32,
+    /// The most the scale may ever move from the car's anchor, relative: a worn-out tyre and
+    /// its pressure. Beyond it is another tyre: the record is contradicted, and its owner
+    /// starts the car's calibration anew.
+    pub walk_max: f32,
 }
 
 impl Default for CalLimits {
@@ -87,6 +101,8 @@ impl Default for CalLimits {
             delay_dwell_s: 30.0,
             contradict_after_s: 180.0,
             stored_weight_s: 120.0,
+            wear_per_h: 1.0e-4,
+            walk_max: 0.03,
         }
     }
 }
@@ -111,6 +127,8 @@ pub enum Contradiction {
     /// This drive's delay (of the position or the velocity) is beyond the bound from the
     /// stored one.
     Delay,
+    // A walk away from the car's anchor is one of these too: its scale beyond the anchor's
+    // allowance is `Scale`, its delay beyond the anchor's bound `Delay`.
 }
 
 /// Exponentially weighted sums of the scale fit for one delay candidate: `sum G conj(D)
@@ -153,13 +171,15 @@ struct DelaySet {
     learnt_s: f32,
     /// The stored record's candidate (the bounds' centre), and this drive's own fit there.
     anchor: Option<usize>,
+    /// The car's anchor's candidate (its first record's delay): bounds too.
+    car: Option<usize>,
     own: DelayFit,
     own_s: f32,
 }
 
 impl DelaySet {
     fn new() -> Self {
-        DelaySet { fits: [DelayFit::default(); DELAYS], best: ZERO, free: ZERO, dwell_s: 0.0, learnt_s: 0.0, anchor: None, own: DelayFit::default(), own_s: 0.0 }
+        DelaySet { fits: [DelayFit::default(); DELAYS], best: ZERO, free: ZERO, dwell_s: 0.0, learnt_s: 0.0, anchor: None, car: None, own: DelayFit::default(), own_s: 0.0 }
     }
     /// A set that starts from a stored delay and scale: every candidate with the stored fit's
     /// weight (a speed of 15 m/s for `weight_s`), so this drive's data decides between them.
@@ -183,6 +203,21 @@ impl DelaySet {
     }
     fn scale(&self) -> Option<f32> {
         self.fits.get(self.best).and_then(DelayFit::scale)
+    }
+    /// The candidates a calibrated delay may take: within `span` of the stored record's and of
+    /// the car's anchor (the anchor's alone where the two do not meet).
+    fn band(&self, span: usize) -> (usize, usize) {
+        let around = |k: usize| (k.saturating_sub(span), (k + span).min(DELAYS - 1));
+        match (self.anchor.map(around), self.car.map(around)) {
+            (Some(s), Some(c)) if s.0.max(c.0) <= s.1.min(c.1) => (s.0.max(c.0), s.1.min(c.1)),
+            (_, Some(c)) => c,
+            (Some(s), None) => s,
+            (None, None) => (0, DELAYS - 1),
+        }
+    }
+    /// The free delay is beyond `span` (and a candidate) of the stored one or the car's anchor.
+    fn contradicts(&self, span: usize) -> bool {
+        [self.anchor, self.car].iter().flatten().any(|k| self.free.abs_diff(*k) > span + 1)
     }
 }
 
@@ -229,11 +264,40 @@ impl Calibration {
         if r.delay_s[1].is_finite() {
             c.sets[1] = DelaySet::stored(r.delay_s[1], r.scale, lim.stored_weight_s);
         }
-        c.scale = r.scale;
+        for (set, a) in c.sets.iter_mut().zip(r.anchor_delay_s) {
+            set.car = a.is_finite().then(|| candidate(a));
+        }
         c.learnt_s = r.learnt_s.max(lim.warmup_s);
         c.stored = Some(*r);
         c.calibrated = true;
+        c.scale = r.scale;
+        if let Some((lo, hi)) = c.scale_band() {
+            // A record already beyond its anchor's allowance (not one this code wrote):
+            // reported at once, and the scale in use within the allowance.
+            if !(lo..=hi).contains(&r.scale) {
+                c.contradiction = Some(Contradiction::Scale);
+                c.scale = r.scale.max(lo).min(hi);
+            }
+        }
         c
+    }
+
+    /// How far the scale may be from the car's anchor, relative, after the driving of `r`:
+    /// [`CalLimits::scale_bound`] and [`CalLimits::wear_per_h`] per hour learnt, at most
+    /// [`CalLimits::walk_max`].
+    pub fn walk_allowance(&self, r: &Record) -> f32 {
+        let a = self.lim.scale_bound + self.lim.wear_per_h * r.learnt_s / 3600.0;
+        if a.is_finite() { a.min(self.lim.walk_max) } else { self.lim.walk_max }
+    }
+
+    /// The scales a drive that started from a stored record may take: within
+    /// [`CalLimits::scale_bound`] of the record's and within [`Calibration::walk_allowance`]
+    /// of the car's anchor (the anchor's alone where the two do not meet).
+    fn scale_band(&self) -> Option<(f32, f32)> {
+        let r = self.stored?;
+        let (b, a) = (self.lim.scale_bound * r.scale, self.walk_allowance(&r) * r.anchor_scale);
+        let (lo, hi) = ((r.scale - b).max(r.anchor_scale - a), (r.scale + b).min(r.anchor_scale + a));
+        Some(if lo <= hi { (lo, hi) } else { (r.anchor_scale - a, r.anchor_scale + a) })
     }
 
     /// The bounds and rates it learns within.
@@ -361,19 +425,17 @@ impl Calibration {
             set.best = free;
         } else {
             // Calibrated: the delay moves one candidate per dwell, within its bound around a
-            // stored record.
-            let (lo, hi) = set.anchor.map_or((0, DELAYS - 1), |k0| (k0.saturating_sub(span), (k0 + span).min(DELAYS - 1)));
+            // stored record and the car's anchor.
+            let (lo, hi) = set.band(span);
             // max/min, not clamp: clamp panics on bounds it cannot prove ordered.
             let target = free.max(lo).min(hi);
             if target != set.best && set.dwell_s >= lim.delay_dwell_s {
                 set.best = if target > set.best { set.best + 1 } else { set.best - 1 };
                 set.dwell_s = 0.0;
             }
-            if let Some(k0) = set.anchor {
-                // The delay's information is in the accelerations only: ten minutes of them.
-                if set.own_s >= (3.0 * lim.contradict_after_s).max(600.0) && free.abs_diff(k0) > span + 1 && self.contradiction.is_none() {
-                    self.contradiction = Some(Contradiction::Delay);
-                }
+            // The delay's information is in the accelerations only: ten minutes of them.
+            if set.anchor.is_some() && set.own_s >= (3.0 * lim.contradict_after_s).max(600.0) && set.contradicts(span) && self.contradiction.is_none() {
+                self.contradiction = Some(Contradiction::Delay);
             }
         }
         // The scale: from the velocity's fits where there are any, else the position's.
@@ -410,16 +472,18 @@ impl Calibration {
         }
     }
 
-    /// A stored record that this drive's own data contradicts beyond the bound, by more than
-    /// three of the own estimate's standard errors, is reported, not relearnt (the scale in use
-    /// stays at its bound). Minutes of town driving resolve the scale to about 1 %. `noise` is
-    /// the velocity residual's variance times its correlation time, (m/s)^2 s.
+    /// A stored record that this drive's own data contradicts beyond the bound (from the
+    /// record's scale, or the allowance from the car's anchor), by more than three of the own
+    /// estimate's standard errors, is reported, not relearnt (the scale in use stays at its
+    /// bound). Minutes of town driving resolve the scale to about 1 %. `noise` is the velocity
+    /// residual's variance times its correlation time, (m/s)^2 s.
     fn check_scale(&mut self, src: Source, noise: f32) {
         let set = &self.sets[src as usize];
         if let (Some(r), None) = (self.stored, self.contradiction) {
             if let Some(own) = set.own.scale().filter(|_| set.own_s >= self.lim.contradict_after_s) {
                 let sd = libm::sqrtf(noise / set.own.b.max(1e-6)) / r.scale;
-                if libm::fabsf(own / r.scale - 1.0) > self.lim.scale_bound + 3.0 * sd {
+                let beyond = |centre: f32, bound: f32| libm::fabsf(own / centre - 1.0) > bound + 3.0 * sd;
+                if beyond(r.scale, self.lim.scale_bound) || beyond(r.anchor_scale, self.walk_allowance(&r)) {
                     self.contradiction = Some(Contradiction::Scale);
                 }
             }
@@ -444,11 +508,8 @@ impl Calibration {
         let Some(s) = set.scale() else { return };
         let step = rate * dt * self.scale;
         let moved = (self.scale + (s - self.scale).max(-step).min(step)).clamp(SCALE_MIN, SCALE_MAX);
-        self.scale = match self.stored {
-            Some(r) => {
-                let b = self.lim.scale_bound * r.scale;
-                moved.max(r.scale - b).min(r.scale + b)
-            }
+        self.scale = match self.scale_band() {
+            Some((lo, hi)) => moved.max(lo).min(hi),
             None => moved,
         };
         self.check_scale(src, noise);
@@ -460,6 +521,17 @@ impl Calibration {
         let vel = &self.sets[Source::Velocity as usize];
         let dv = if vel.learnt_s > 0.0 || vel.anchor.is_some() { delay_of(vel.best) } else { f32::NAN };
         (self.scale, [self.delay_s(Source::Position), dv], self.learnt_s)
+    }
+
+    /// The record's anchors (see [`Record::anchor_scale`]): the stored record's, and this
+    /// drive's scale and delays where there is none (a first drive: they become the car's);
+    /// the velocity's delay from the first drive that learnt one.
+    pub fn anchors(&self) -> (f32, [f32; 2]) {
+        let (scale, delay_s, _) = self.record_base();
+        match self.stored {
+            Some(r) => (r.anchor_scale, [r.anchor_delay_s[0], if r.anchor_delay_s[1].is_finite() { r.anchor_delay_s[1] } else { delay_s[1] }]),
+            None => (scale, delay_s),
+        }
     }
 }
 
@@ -491,6 +563,8 @@ mod tests {
             noise_k: [0.01; 2],
             velocity_sigma_mps: [0.2; 2],
             nominal_dt_s: 1.0,
+            anchor_scale: 0.99,
+            anchor_delay_s: [-0.75, -0.5],
         }
     }
 
@@ -537,6 +611,76 @@ mod tests {
         feed(&mut c, 0.99 * 1.03, 600);
         assert!(c.scale() <= 0.99 * 1.01 + 1e-6, "scale {}", c.scale());
         assert_eq!(c.contradiction(), Some(Contradiction::Scale));
+    }
+
+    /// The record a drive leaves for the next one, as the track check writes it: none when the
+    /// drive contradicted its record (the stored one stays).
+    fn next(c: &Calibration, r: &Record) -> Option<Record> {
+        let (scale, delay_s, learnt_s) = c.record_base();
+        let (anchor_scale, anchor_delay_s) = c.anchors();
+        c.contradiction().is_none().then_some(Record { scale, delay_s, learnt_s, drives: r.drives + 1, anchor_scale, anchor_delay_s, ..*r })
+    }
+
+    /// Drive after drive, a spoofer asks 0.8 % more of the scale than the record holds, within
+    /// the bound of one drive: the car's anchor stops the walk at its allowance and the drive
+    /// that asks beyond it is reported. The same car honestly (its scale wobbling by 0.2 %
+    /// from drive to drive) is never reported in 50 drives, and its anchor never moves.
+    #[test]
+    fn a_spoofer_on_every_drive_cannot_walk_the_record() {
+        let lim = CalLimits::default();
+        let mut rec = record();
+        let mut reported = None;
+        for drive in 0..10 {
+            let mut c = Calibration::from_record(lim, &rec);
+            feed(&mut c, rec.scale * 1.008, 1800);
+            let top = rec.anchor_scale * (1.0 + c.walk_allowance(&rec));
+            assert!(c.scale() <= top + 1e-6, "drive {drive}: scale {} beyond {top}", c.scale());
+            match next(&c, &rec) {
+                Some(r) => rec = r,
+                None => {
+                    reported = Some(drive);
+                    break;
+                }
+            }
+        }
+        // 0.99 -> 0.998 -> 1.006 asked: the second drive asks beyond 1 % of the anchor.
+        assert_eq!(reported, Some(1), "record {rec:?}");
+        assert!(rec.scale <= 0.99 * 1.0101 && rec.anchor_scale == 0.99, "record {rec:?}");
+
+        let mut rec = record();
+        for drive in 0..50 {
+            let mut c = Calibration::from_record(lim, &rec);
+            feed(&mut c, 0.99 * (1.0 + 0.002 * ((drive % 3) as f32 - 1.0)), 1800);
+            rec = next(&c, &rec).unwrap_or_else(|| panic!("drive {drive} contradicted {rec:?}"));
+            assert_eq!((rec.anchor_scale, rec.anchor_delay_s), (0.99, [-0.75, -0.5]));
+        }
+        assert_eq!(rec.drives, 54);
+    }
+
+    /// The delay too: a record whose delay has walked a bound from the car's anchor keeps the
+    /// next drive within the anchor's bound, and a drive whose delay is beyond it is reported.
+    #[test]
+    fn a_delay_walked_from_the_anchor_is_bounded_by_it() {
+        let mut rec = record();
+        rec.delay_s[1] = 0.5;
+        let mut c = Calibration::from_record(CalLimits::default(), &rec);
+        // Twenty minutes of accelerations whose velocity is 1.5 s late: the record's bound
+        // (+-1 s around 0.5 s) would allow 1.5 s, the anchor's (-0.5 +- 1 s) 0.5 s at most.
+        // Slow ones (a minute's period): the scale's own fit at the stored delay stays within
+        // its bound, so the delay is what is reported.
+        let v = |t: f32| 15.0 + 5.0 * libm::sinf(core::f32::consts::TAU * t / 60.0);
+        for s in 0..1200 {
+            let t = s as f32;
+            let mut d = [(0.0f32, 0.0f32); DELAYS];
+            for (k, x) in d.iter_mut().enumerate() {
+                *x = (0.0, v(t - delay_of(k) + 1.5) / 0.99);
+            }
+            c.learn(Source::Velocity, (0.0, v(t)), &d, (1.0, 0.0), 1.0, 0.15, 5.0);
+            c.learn_own(Source::Velocity, (0.0, v(t)), &d, (1.0, 0.0), 1.0, 0.15, 5.0);
+        }
+        assert_eq!(c.free_delay_s(Source::Velocity), 1.5);
+        assert!(c.delay_s(Source::Velocity) <= 0.5, "delay {}", c.delay_s(Source::Velocity));
+        assert_eq!(c.contradiction(), Some(Contradiction::Delay));
     }
 
     #[test]

@@ -202,6 +202,7 @@ impl TrackCheck {
             return None;
         }
         let (scale, delay_s, learnt_s) = self.cal.record_base();
+        let (anchor_scale, anchor_delay_s) = self.cal.anchors();
         let stored = self.stored;
         let (s2a, k2a) = self.noise_params(0);
         let (s2b, k2b) = self.noise_params(1);
@@ -220,6 +221,8 @@ impl TrackCheck {
             noise_k: [libm::sqrtf(k2a), libm::sqrtf(k2b)],
             velocity_sigma_mps: self.quiet_sigma,
             nominal_dt_s: self.cfg_dt(),
+            anchor_scale,
+            anchor_delay_s,
         })
         .filter(|r| r.plausible().is_ok())
     }
