@@ -521,7 +521,7 @@ pub fn calibration(data: &[u8]) {
         let mut v = data[..RECORD_LEN].to_vec();
         v[..4].copy_from_slice(b"GGCR");
         v[4..6].copy_from_slice(&detector_core::wire::calibration::VERSION.to_le_bytes());
-        v[6..8].copy_from_slice(&(RECORD_LEN as u16).to_le_bytes());
+        v[6..8].copy_from_slice(&(detector_core::wire::calibration::PAYLOAD_LEN as u16).to_le_bytes());
         let n = RECORD_LEN - 4;
         let crc = detector_core::wire::crc32::crc32(&v[..n]);
         v[n..].copy_from_slice(&crc.to_le_bytes());
