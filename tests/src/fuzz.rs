@@ -576,6 +576,7 @@ fn store(data: &[u8], record: Option<&detector_core::wire::calibration::Record>)
         nominal_dt_s: 1.0,
         anchor_scale: 1.0,
         anchor_delay_s: [0.5, f32::NAN],
+        anchor_gyro_scale_error: 0.0,
     });
     if block_on(s.save(&r)).is_ok() {
         match block_on(s.load()) {

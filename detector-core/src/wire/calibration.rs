@@ -2,12 +2,12 @@
 //! car, kept across drives (the board in flash, `host-sim detect --calibration` in a file).
 //!
 //! Little endian, [`RECORD_LEN`] bytes:
-//! `"GGCR" | version u16 = 2 | payload length u16 = 76 |
+//! `"GGCR" | version u16 = 2 | payload length u16 = 80 |
 //! scale f32 | delay of the position f32 | delay of the velocity f32 (NaN: none) | learnt s f32 |
 //! drives u16 | flags u16 = 0 | gyro bias deg/s f32 (NaN: none) | its weight s f32 |
 //! gyro scale error f32 | its sd f32 | s0 m f32 x 2 | k f32 x 2 | velocity sigma m/s f32 x 2 |
 //! nominal epoch s f32 | anchor scale f32 | anchor delays f32 x 2 (the velocity's NaN: none) |
-//! crc32 u32` (CRC over all bytes before it).
+//! anchor gyro scale error f32 | crc32 u32` (CRC over all bytes before it).
 //!
 //! Version 1 (76 bytes, payload 64) is the same without the anchors; it is still read, its own
 //! scale and delays taken as its anchors, so a car's calibration survives the update.
@@ -25,7 +25,7 @@ pub const MAGIC: &[u8; 4] = b"GGCR";
 pub const VERSION: u16 = 2;
 const HEADER: usize = 8;
 /// The payload's length, bytes (the header's length field).
-pub const PAYLOAD_LEN: usize = 76;
+pub const PAYLOAD_LEN: usize = 80;
 const PAYLOAD: usize = PAYLOAD_LEN;
 /// Version 1's payload, bytes: no anchors.
 const PAYLOAD_V1: usize = 64;
@@ -71,6 +71,8 @@ pub struct Record {
     /// The delays of the car's first record (the velocity's: of the first record that had one,
     /// NaN before), the anchor of every later drive's delays.
     pub anchor_delay_s: [f32; 2],
+    /// The gyro scale error of the car's first record: every later drive's stays near it.
+    pub anchor_gyro_scale_error: f32,
 }
 
 /// Why a record was refused, and where (a byte offset into it).
@@ -126,10 +128,10 @@ impl RecordError {
     /// What was expected there.
     pub fn expected(&self) -> &'static str {
         match self {
-            RecordError::TooShort { .. } => "a calibration record of 88 bytes (76 in version 1)",
+            RecordError::TooShort { .. } => "a calibration record of 92 bytes (76 in version 1)",
             RecordError::BadMagic => "the magic \"GGCR\"",
             RecordError::BadVersion { .. } => "version 2 or 1",
-            RecordError::BadLength { .. } => "a payload of 76 bytes (64 in version 1)",
+            RecordError::BadLength { .. } => "a payload of 80 bytes (64 in version 1)",
             RecordError::BadCrc { .. } => "the CRC-32 of the bytes before it",
             RecordError::Implausible { field, .. } => field,
         }
@@ -153,6 +155,7 @@ mod at {
     pub const DT: usize = 68;
     pub const ANCHOR_SCALE: usize = 72;
     pub const ANCHOR_DELAY: usize = 76;
+    pub const ANCHOR_GSCALE: usize = 84;
 }
 
 /// The wheel-speed scales that are physically possible (a wheel-speed signal 20 % slow or 25 %
@@ -165,52 +168,33 @@ impl Record {
     /// Every field finite and physically possible (what a decoded record must satisfy): the
     /// name and offset of the first that is not.
     pub fn check(&self) -> Result<(), RecordError> {
-        let ok = |v: f32, lo: f32, hi: f32| v.is_finite() && (lo..=hi).contains(&v);
-        let bad = |field, at| Err(RecordError::Implausible { field, at });
-        if !ok(self.scale, SCALE_MIN, SCALE_MAX) {
-            return bad("scale between 0.8 and 1.25", at::SCALE);
-        }
-        if !ok(self.delay_s[0], -MAX_DELAY_S, MAX_DELAY_S) {
-            return bad("a position delay within 3 s", at::DELAY);
-        }
-        if !(self.delay_s[1].is_nan() || ok(self.delay_s[1], -MAX_DELAY_S, MAX_DELAY_S)) {
-            return bad("a velocity delay within 3 s, or NaN", at::DELAY + 4);
-        }
-        if !ok(self.learnt_s, 0.0, 1.0e9) {
-            return bad("seconds learnt between 0 and 1e9", at::LEARNT);
-        }
-        if !(self.gyro_bias_degps.is_nan() || ok(self.gyro_bias_degps, -10.0, 10.0)) {
-            return bad("a gyro bias within 10 deg/s, or NaN", at::BIAS);
-        }
-        if !ok(self.gyro_bias_weight_s, 0.0, 1.0e9) {
-            return bad("a gyro bias weight between 0 and 1e9 s", at::BIAS_W);
-        }
-        if !ok(self.gyro_scale_error, -0.2, 0.2) {
-            return bad("a gyro scale error within 0.2", at::GSCALE);
-        }
-        if !ok(self.gyro_scale_sd, 0.0, 1.0) {
-            return bad("a gyro scale sd between 0 and 1", at::GSCALE_SD);
-        }
-        if !self.noise_s0_m.iter().all(|v| ok(*v, 0.0, 1000.0)) {
-            return bad("window noise s0 between 0 and 1000 m", at::S0);
-        }
-        if !self.noise_k.iter().all(|v| ok(*v, 0.0, 10.0)) {
-            return bad("window noise k between 0 and 10", at::K);
-        }
-        if !self.velocity_sigma_mps.iter().all(|v| ok(*v, 0.0, 100.0)) {
-            return bad("velocity noise between 0 and 100 m/s", at::SIGMA);
-        }
-        if !ok(self.nominal_dt_s, 0.01, 10.0) {
-            return bad("a nominal epoch between 0.01 and 10 s", at::DT);
-        }
-        if !ok(self.anchor_scale, SCALE_MIN, SCALE_MAX) {
-            return bad("an anchor scale between 0.8 and 1.25", at::ANCHOR_SCALE);
-        }
-        if !ok(self.anchor_delay_s[0], -MAX_DELAY_S, MAX_DELAY_S) {
-            return bad("an anchor position delay within 3 s", at::ANCHOR_DELAY);
-        }
-        if !(self.anchor_delay_s[1].is_nan() || ok(self.anchor_delay_s[1], -MAX_DELAY_S, MAX_DELAY_S)) {
-            return bad("an anchor velocity delay within 3 s, or NaN", at::ANCHOR_DELAY + 4);
+        // One table and one loop (each field as its own `if` took 1.3 KB of flash): the value,
+        // its range, whether NaN is allowed (none) and what is expected, at its offset.
+        let fields: [(f32, f32, f32, bool, &'static str, usize); 19] = [
+            (self.scale, SCALE_MIN, SCALE_MAX, false, "scale between 0.8 and 1.25", at::SCALE),
+            (self.delay_s[0], -MAX_DELAY_S, MAX_DELAY_S, false, "a position delay within 3 s", at::DELAY),
+            (self.delay_s[1], -MAX_DELAY_S, MAX_DELAY_S, true, "a velocity delay within 3 s, or NaN", at::DELAY + 4),
+            (self.learnt_s, 0.0, 1.0e9, false, "seconds learnt between 0 and 1e9", at::LEARNT),
+            (self.gyro_bias_degps, -10.0, 10.0, true, "a gyro bias within 10 deg/s, or NaN", at::BIAS),
+            (self.gyro_bias_weight_s, 0.0, 1.0e9, false, "a gyro bias weight between 0 and 1e9 s", at::BIAS_W),
+            (self.gyro_scale_error, -0.2, 0.2, false, "a gyro scale error within 0.2", at::GSCALE),
+            (self.gyro_scale_sd, 0.0, 1.0, false, "a gyro scale sd between 0 and 1", at::GSCALE_SD),
+            (self.noise_s0_m[0], 0.0, 1000.0, false, "window noise s0 between 0 and 1000 m", at::S0),
+            (self.noise_s0_m[1], 0.0, 1000.0, false, "window noise s0 between 0 and 1000 m", at::S0),
+            (self.noise_k[0], 0.0, 10.0, false, "window noise k between 0 and 10", at::K),
+            (self.noise_k[1], 0.0, 10.0, false, "window noise k between 0 and 10", at::K),
+            (self.velocity_sigma_mps[0], 0.0, 100.0, false, "velocity noise between 0 and 100 m/s", at::SIGMA),
+            (self.velocity_sigma_mps[1], 0.0, 100.0, false, "velocity noise between 0 and 100 m/s", at::SIGMA),
+            (self.nominal_dt_s, 0.01, 10.0, false, "a nominal epoch between 0.01 and 10 s", at::DT),
+            (self.anchor_scale, SCALE_MIN, SCALE_MAX, false, "an anchor scale between 0.8 and 1.25", at::ANCHOR_SCALE),
+            (self.anchor_delay_s[0], -MAX_DELAY_S, MAX_DELAY_S, false, "an anchor position delay within 3 s", at::ANCHOR_DELAY),
+            (self.anchor_delay_s[1], -MAX_DELAY_S, MAX_DELAY_S, true, "an anchor velocity delay within 3 s, or NaN", at::ANCHOR_DELAY + 4),
+            (self.anchor_gyro_scale_error, -0.2, 0.2, false, "an anchor gyro scale error within 0.2", at::ANCHOR_GSCALE),
+        ];
+        for (v, lo, hi, nan_ok, field, at) in fields {
+            if !(nan_ok && v.is_nan() || v.is_finite() && v >= lo && v <= hi) {
+                return Err(RecordError::Implausible { field, at });
+            }
         }
         Ok(())
     }
@@ -250,6 +234,7 @@ impl Record {
         put(at::ANCHOR_SCALE, &self.anchor_scale.to_le_bytes());
         put(at::ANCHOR_DELAY, &self.anchor_delay_s[0].to_le_bytes());
         put(at::ANCHOR_DELAY + 4, &self.anchor_delay_s[1].to_le_bytes());
+        put(at::ANCHOR_GSCALE, &self.anchor_gyro_scale_error.to_le_bytes());
         let crc = crc32(b.get(..HEADER + PAYLOAD).unwrap_or(&[]));
         if let Some(d) = b.get_mut(HEADER + PAYLOAD..) {
             d.copy_from_slice(&crc.to_le_bytes());
@@ -286,7 +271,8 @@ impl Record {
         }
         let f = |at: usize| le::f32(b, at).unwrap_or(f32::NAN);
         let (scale, delay_s) = (f(at::SCALE), [f(at::DELAY), f(at::DELAY + 4)]);
-        let (anchor_scale, anchor_delay_s) = if version == 1 { (scale, delay_s) } else { (f(at::ANCHOR_SCALE), [f(at::ANCHOR_DELAY), f(at::ANCHOR_DELAY + 4)]) };
+        let gse = f(at::GSCALE);
+        let (anchor_scale, anchor_delay_s, anchor_gyro_scale_error) = if version == 1 { (scale, delay_s, gse) } else { (f(at::ANCHOR_SCALE), [f(at::ANCHOR_DELAY), f(at::ANCHOR_DELAY + 4)], f(at::ANCHOR_GSCALE)) };
         let r = Record {
             scale,
             delay_s,
@@ -294,7 +280,7 @@ impl Record {
             drives: le::u16(b, at::DRIVES).unwrap_or(0),
             gyro_bias_degps: f(at::BIAS),
             gyro_bias_weight_s: f(at::BIAS_W),
-            gyro_scale_error: f(at::GSCALE),
+            gyro_scale_error: gse,
             gyro_scale_sd: f(at::GSCALE_SD),
             noise_s0_m: [f(at::S0), f(at::S0 + 4)],
             noise_k: [f(at::K), f(at::K + 4)],
@@ -302,6 +288,7 @@ impl Record {
             nominal_dt_s: f(at::DT),
             anchor_scale,
             anchor_delay_s,
+            anchor_gyro_scale_error,
         };
         r.check()?;
         Ok(r)
@@ -328,6 +315,7 @@ mod tests {
             nominal_dt_s: 1.0,
             anchor_scale: 0.9951,
             anchor_delay_s: [0.25, f32::NAN],
+            anchor_gyro_scale_error: -0.012,
         }
     }
 
@@ -377,6 +365,9 @@ mod tests {
         r = example();
         r.anchor_delay_s[0] = f32::NAN;
         assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 76);
+        r = example();
+        r.anchor_gyro_scale_error = 0.3;
+        assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 84);
     }
 
     /// A version 1 record (before the anchors) is read, its own scale and delays its anchors;
@@ -392,6 +383,7 @@ mod tests {
         v1[HEADER + PAYLOAD_V1..].copy_from_slice(&crc.to_le_bytes());
         let d = Record::decode(&v1).unwrap();
         assert_eq!((d.scale, d.anchor_scale, d.anchor_delay_s[0]), (r.scale, r.scale, r.delay_s[0]));
+        assert_eq!(d.anchor_gyro_scale_error, r.gyro_scale_error);
         assert!(d.anchor_delay_s[1].is_nan());
         assert_eq!(d.learnt_s, r.learnt_s);
         // Written back, it is a version 2 record.

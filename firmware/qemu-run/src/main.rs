@@ -94,6 +94,7 @@ fn stored_record() -> Record {
         nominal_dt_s: 0.1,
         anchor_scale: 1.0,
         anchor_delay_s: [0.0, 0.0],
+        anchor_gyro_scale_error: 0.0,
     }
 }
 

@@ -127,8 +127,12 @@ pub enum Contradiction {
     /// This drive's delay (of the position or the velocity) is beyond the bound from the
     /// stored one.
     Delay,
+    /// This drive's gyro scale error is beyond the bound from the stored one (or from the car's
+    /// anchor).
+    GyroScale,
     // A walk away from the car's anchor is one of these too: its scale beyond the anchor's
-    // allowance is `Scale`, its delay beyond the anchor's bound `Delay`.
+    // allowance is `Scale`, its delay beyond the anchor's bound `Delay`, its gyro scale error
+    // beyond the anchor's walk `GyroScale`.
 }
 
 /// Exponentially weighted sums of the scale fit for one delay candidate: `sum G conj(D)
@@ -385,6 +389,13 @@ impl Calibration {
     pub fn contradiction(&self) -> Option<Contradiction> {
         self.contradiction
     }
+    /// Reports a contradiction found outside the calibration (the gyro's scale, which the
+    /// frame's rotation learns), unless one was found before.
+    pub fn contradict(&mut self, c: Contradiction) {
+        if self.stored.is_some() && self.contradiction.is_none() {
+            self.contradiction = Some(c);
+        }
+    }
     /// Per delay candidate of `src`: the delay, how much of the GNSS velocity its fit explains
     /// and its scale (diagnostics).
     pub fn fits(&self, src: Source) -> [(f32, f32, f32); DELAYS] {
@@ -565,6 +576,7 @@ mod tests {
             nominal_dt_s: 1.0,
             anchor_scale: 0.99,
             anchor_delay_s: [-0.75, -0.5],
+            anchor_gyro_scale_error: 0.0,
         }
     }
 

@@ -93,10 +93,13 @@ impl TrackCheck {
             }
             _ => None,
         };
-        let turn = match (dpsi, self.rot_mut()) {
-            (Some(dpsi), Some(rot)) if dpsi.is_finite() => {
-                rot.predict(dt, dpsi, &c);
-                rot.corrected_turn(dt, dpsi)
+        let turn = match dpsi {
+            Some(dpsi) if dpsi.is_finite() && self.rot().is_some() => {
+                self.rot_own.predict(dt, dpsi, &c);
+                self.rot.predict(dt, dpsi, &c);
+                let turn = self.rot.corrected_turn(dt, dpsi);
+                self.own_offset = wrap_pi(self.own_offset + self.rot_own.corrected_turn(dt, dpsi) - turn);
+                turn
             }
             _ => 0.0,
         };
@@ -109,8 +112,10 @@ impl TrackCheck {
             if let Some(h) = gnss_heading {
                 // The DR frame starts on the GNSS heading; its rotation is learnt afresh.
                 self.psi = h - turn;
-                if let Some(rot) = self.rot_mut() {
-                    rot.realign(&c);
+                if self.rot().is_some() {
+                    self.rot.realign(&c);
+                    self.rot_own.realign(&c);
+                    self.own_offset = 0.0;
                 }
                 self.aligned = true;
             }

@@ -89,6 +89,7 @@ use self::history::{Entry, MAX_STEP_S};
 use self::noise::NOISE_SPLIT_MPS;
 use self::pairs::{Pair, PAIRS_PER_EPOCH};
 use self::plane::{cmul, conj, norm2};
+use self::rotation::wrap_pi;
 use self::velocity::{VelocityOutcome, ACROSS};
 use self::windows::Window;
 use crate::geo::{to_local, EARTH_RADIUS_PAPER_M};
@@ -410,8 +411,10 @@ impl TrackCheck {
             }
             _ => None,
         };
-        if let (Some((phi, r)), Some(rot)) = (measured, self.rot_mut()) {
-            rot.update(phi, r, &c);
+        if let Some((phi, r)) = measured.filter(|_| self.rot().is_some()) {
+            self.rot.update(phi, r, &c);
+            self.rot_own.update(wrap_pi(phi - self.own_offset), r, &c);
+            self.check_gyro_scale();
         }
     }
 }

@@ -2,13 +2,13 @@
 //! has learnt about the car, how it starts, restarts and is reset, the stored record it keeps,
 //! and the accessors every stage reads (the frame's rotation, the gain, the DR at a time).
 
-use super::calibration::{Calibration, Record, Source};
+use super::calibration::{Calibration, Contradiction, Record, Source};
 use super::config::{TrackConfig, WINDOWS_S};
 use super::history::{Entry, History};
 use super::noise::{NoiseFits, NOISE_SPLIT_MPS};
 use super::outcome::HeadingSource;
 use super::plane::{cis, scale2};
-use super::rotation::{self, Rotation, MAX_BIAS_DEGPS};
+use super::rotation::{self, Rotation, GYRO_SCALE_BOUND, GYRO_SCALE_WALK, MAX_BIAS_DEGPS};
 use super::velocity::VelocityTest;
 use crate::geo::LatLon;
 
@@ -84,6 +84,14 @@ pub struct TrackCheck {
     pub(super) bias: f32,
     pub(super) bias_weight: f32,
     pub(super) rot: Rotation,
+    /// This drive's own estimate of the frame's rotation (its gyro scale error from the
+    /// power-up uncertainty, unbounded), measured whenever `rot` is (while the check learns):
+    /// only compared with the stored record's, which bounds `rot`'s (see
+    /// [`TrackCheck::check_gyro_scale`]).
+    pub(super) rot_own: Rotation,
+    /// How far the DR heading with `rot_own`'s corrections would have turned from the DR's
+    /// (with `rot`'s) since the frame's alignment, radians: `rot_own` measures its own frame.
+    pub(super) own_offset: f32,
     pub(super) cal: Calibration,
     pub(super) noise: [NoiseFits; 2],
     /// The 10 s window's along-track error alone (what the velocity test's position
@@ -137,6 +145,8 @@ impl TrackCheck {
             bias: 0.0,
             bias_weight: 0.0,
             rot: Rotation::new(&cfg),
+            rot_own: Rotation::new(&cfg),
+            own_offset: 0.0,
             cal: Calibration::new(cfg.cal),
             noise: [NoiseFits::default(); 2],
             noise_along: NoiseFits::default(),
@@ -167,6 +177,17 @@ impl TrackCheck {
             self.bias_weight = r.gyro_bias_weight_s.min(10.0);
         }
         self.rot = Rotation::with_scale(&self.cfg, r.gyro_scale_error, r.gyro_scale_sd);
+        self.rot_own = Rotation::with_scale(&self.cfg, r.gyro_scale_error, self.cfg.gyro_scale_sd);
+        // Within the bound of the record's scale error and the walk from the car's anchor
+        // (the anchor's alone where they do not meet: a record this code did not write).
+        let (e, a) = (r.gyro_scale_error, r.anchor_gyro_scale_error);
+        let (lo, hi) = ((e - GYRO_SCALE_BOUND).max(a - GYRO_SCALE_WALK), (e + GYRO_SCALE_BOUND).min(a + GYRO_SCALE_WALK));
+        if lo <= hi {
+            self.rot.bound_scale(lo, hi);
+        } else {
+            self.rot.bound_scale(a - GYRO_SCALE_WALK, a + GYRO_SCALE_WALK);
+            self.cal.contradict(Contradiction::GyroScale);
+        }
         self.bound_bias_by_standstill();
         // The same receiver class: its noise carries over as the prior.
         if libm::fabsf(r.nominal_dt_s - self.cfg_dt()) < 0.5 * r.nominal_dt_s {
@@ -186,6 +207,18 @@ impl TrackCheck {
                 nf.add(split, 150.0 * 150.0, v1, 0.5 * secs, 0.5 * secs / (v1 * v1).max(1e-6), 1.0, floors);
             }
             self.learnt_s = self.cfg.warmup_s;
+        }
+    }
+
+    /// This drive's own gyro scale error (its own filter, from the power-up uncertainty)
+    /// beyond the bound from the stored record's, or the walk from the car's anchor, by more
+    /// than three of its standard deviations: the record is contradicted, not relearnt.
+    pub(super) fn check_gyro_scale(&mut self) {
+        let Some(r) = self.stored else { return };
+        let (e, sd) = (self.rot_own.scale_error(), libm::sqrtf(self.rot_own.var_scale()));
+        let beyond = |centre: f32, bound: f32| libm::fabsf(e - centre) > bound + 3.0 * sd;
+        if beyond(r.gyro_scale_error, GYRO_SCALE_BOUND) || beyond(r.anchor_gyro_scale_error, GYRO_SCALE_WALK) {
+            self.cal.contradict(Contradiction::GyroScale);
         }
     }
 
@@ -216,6 +249,7 @@ impl TrackCheck {
             gyro_bias_degps: if gyro { whole_bias } else { stored.map_or(f32::NAN, |r| r.gyro_bias_degps) },
             gyro_bias_weight_s: self.bias_weight,
             gyro_scale_error: self.rot.scale_error(),
+            anchor_gyro_scale_error: stored.map_or(self.rot.scale_error(), |r| r.anchor_gyro_scale_error),
             gyro_scale_sd: libm::sqrtf(self.rot.var_scale()),
             noise_s0_m: [libm::sqrtf(s2a), libm::sqrtf(s2b)],
             noise_k: [libm::sqrtf(k2a), libm::sqrtf(k2b)],
@@ -280,6 +314,7 @@ impl TrackCheck {
         self.bias = 0.0;
         self.bias_weight = 0.0;
         self.rot = Rotation::new(&cfg);
+        self.rot_own = Rotation::new(&cfg);
         self.cal = Calibration::new(cfg.cal);
         self.noise = [NoiseFits::default(); 2];
         self.noise_along = NoiseFits::default();
@@ -347,21 +382,18 @@ impl TrackCheck {
     /// uncertainty: the frame's uncertainty then grows by that offset over a stretch without
     /// GNSS course (a stop, a slow crawl, a gap), not by half a degree a second.
     pub(super) fn bound_bias_by_standstill(&mut self) {
-        // The filter itself, not `rot_mut`: a stored record is loaded before the heading's
+        // The filters themselves, not `rot`: a stored record is loaded before the heading's
         // source is known.
         if self.bias_weight >= rotation::STANDSTILL_MEASURED_S {
             let sd = rotation::STANDSTILL_BIAS_SD_DEGPS.to_radians();
             self.rot.bound_omega_var(sd * sd);
+            self.rot_own.bound_omega_var(sd * sd);
         }
     }
 
     /// The rotation filter of this stretch's heading source (none when GNSS is the heading).
     pub(super) fn rot(&self) -> Option<&Rotation> {
         (self.source == Some(HeadingSource::Gyro)).then_some(&self.rot)
-    }
-
-    pub(super) fn rot_mut(&mut self) -> Option<&mut Rotation> {
-        (self.source == Some(HeadingSource::Gyro)).then_some(&mut self.rot)
     }
 
     /// The DR position at time `t` (the newest when `t` is now or later).
