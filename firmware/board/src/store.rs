@@ -330,6 +330,29 @@ mod tests {
         assert!(Store::new(Flash::default(), 100..6144).is_none());
     }
 
+    /// A record an older firmware kept (version 1, 76 bytes, without the anchors) is read after
+    /// the update, its own scale and delays its anchors, and the next save writes version 2:
+    /// the car's calibration survives the update.
+    #[test]
+    fn a_version_1_record_survives_the_update() {
+        let mut s = Store::new(Flash::default(), RANGE).unwrap();
+        let r = record(3);
+        let mut v1 = r.encode()[..76].to_vec();
+        v1[4..6].copy_from_slice(&1u16.to_le_bytes());
+        v1[6..8].copy_from_slice(&64u16.to_le_bytes());
+        let crc = detector_core::wire::crc32::crc32(&v1[..72]);
+        v1[72..].copy_from_slice(&crc.to_le_bytes());
+        block_on(s.map.store_item(&mut s.buf, &RecordKey, &&v1[..])).unwrap();
+        let Loaded::Record(got) = block_on(s.load()) else { panic!("a version 1 record is read") };
+        assert_eq!((got.scale, got.delay_s, got.drives), (r.scale, r.delay_s, r.drives));
+        assert_eq!((got.anchor_scale, got.anchor_delay_s, got.anchor_gyro_scale_error), (r.scale, r.delay_s, r.gyro_scale_error));
+        block_on(s.save(&got)).unwrap();
+        assert_eq!(block_on(s.load()), Loaded::Record(got));
+        let mut buf = [0u8; BUF];
+        let bytes = block_on(s.map.fetch_item::<&[u8]>(&mut buf, &RecordKey)).unwrap().unwrap();
+        assert_eq!((bytes.len(), &bytes[4..6]), (RECORD_LEN, &2u16.to_le_bytes()[..]));
+    }
+
     #[test]
     fn wear_is_levelled_over_both_sectors() {
         let mut s = Store::new(Flash::default(), RANGE).unwrap();
