@@ -95,10 +95,13 @@ impl TrackCheck {
         };
         let turn = match dpsi {
             Some(dpsi) if dpsi.is_finite() && self.rot().is_some() => {
-                self.rot_own.predict(dt, dpsi, &c);
                 self.rot.predict(dt, dpsi, &c);
                 let turn = self.rot.corrected_turn(dt, dpsi);
-                self.own_offset = wrap_pi(self.own_offset + self.rot_own.corrected_turn(dt, dpsi) - turn);
+                // The drive's own estimate only has a stored record to be compared with.
+                if self.stored.is_some() {
+                    self.rot_own.predict(dt, dpsi, &c);
+                    self.own_offset = wrap_pi(self.own_offset + self.rot_own.corrected_turn(dt, dpsi) - turn);
+                }
                 turn
             }
             _ => 0.0,

@@ -413,8 +413,10 @@ impl TrackCheck {
         };
         if let Some((phi, r)) = measured.filter(|_| self.rot().is_some()) {
             self.rot.update(phi, r, &c);
-            self.rot_own.update(wrap_pi(phi - self.own_offset), r, &c);
-            self.check_gyro_scale();
+            if self.stored.is_some() {
+                self.rot_own.update(wrap_pi(phi - self.own_offset), r, &c);
+                self.check_gyro_scale();
+            }
         }
     }
 }

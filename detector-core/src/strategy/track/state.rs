@@ -93,9 +93,9 @@ pub struct TrackCheck {
     pub(super) bias_weight: f32,
     pub(super) rot: Rotation,
     /// This drive's own estimate of the frame's rotation (its gyro scale error from the
-    /// power-up uncertainty, unbounded), measured whenever `rot` is (while the check learns):
-    /// only compared with the stored record's, which bounds `rot`'s (see
-    /// [`TrackCheck::check_gyro_scale`]).
+    /// power-up uncertainty, unbounded), measured whenever `rot` is (while the check learns),
+    /// and only on a drive from a stored record: compared with the record's, which bounds
+    /// `rot`'s (see [`TrackCheck::check_gyro_scale`]).
     pub(super) rot_own: Rotation,
     /// How far the DR heading with `rot_own`'s corrections would have turned from the DR's
     /// (with `rot`'s) since the frame's alignment, radians: `rot_own` measures its own frame.
