@@ -16,6 +16,14 @@ fn detect(path: &std::path::Path) -> (Vec<serde_json::Value>, serde_json::Value)
     (lines, summary)
 }
 
+/// An empty directory of this test run's own under the system's temporary one.
+fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("gnss-guard-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 fn detect_with_status(path: &std::path::Path) -> (Vec<serde_json::Value>, serde_json::Value, Vec<serde_json::Value>) {
     let out = host_sim(&["detect", "--json", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}: {}", path.display(), String::from_utf8_lossy(&out.stderr));
@@ -145,9 +153,7 @@ fn detect_text_output_has_a_summary() {
 #[test]
 fn the_calibration_file_carries_the_car_across_drives() {
     let Some(d) = data_dir("the_calibration_file_carries_the_car_across_drives") else { return };
-    let dir = std::env::temp_dir().join(format!("gnss-guard-cal-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("cal");
     let file = dir.join("car.ggcr");
     let run = |drive: &str| -> (serde_json::Value, Vec<serde_json::Value>, String) {
         let p = d.join("drives/css_canedge").join(drive);
@@ -189,9 +195,7 @@ fn the_calibration_file_carries_the_car_across_drives() {
 /// --calibration`, each with `column` multiplied by its factor: per drive, the last JSON line
 /// and the record in the file after it.
 fn drives_in_turn(name: &str, d: &std::path::Path, source: &str, drives: &[usize], column: &str, factors: &[f64]) -> Vec<(serde_json::Value, detector_core::wire::calibration::Record)> {
-    let dir = std::env::temp_dir().join(format!("gnss-guard-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir(name);
     let file = dir.join("car.ggcr");
     let mut all: Vec<_> = std::fs::read_dir(d.join("drives").join(source)).unwrap().flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "csv")).collect();
     all.sort();
@@ -276,9 +280,7 @@ fn a_spoofer_on_every_drive_cannot_walk_the_gyro_scale() {
 #[test]
 fn added_noise_raises_the_stored_noise_by_a_quarter_at_most() {
     let Some(d) = data_dir("added_noise_raises_the_stored_noise_by_a_quarter_at_most") else { return };
-    let dir = std::env::temp_dir().join(format!("gnss-guard-noise-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = fresh_dir("noise");
     let (file, noisy) = (dir.join("car.ggcr"), dir.join("noisy.csv"));
     let css = d.join("drives/css_canedge");
     let out = host_sim(&["detect", "--calibration", file.to_str().unwrap(), css.join("denmark_2021-07-26_session0.csv").to_str().unwrap()]);
