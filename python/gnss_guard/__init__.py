@@ -46,7 +46,7 @@ class Detection:
     ``host-sim detect --out``). ``summary``: epochs, the receiver profile, per strategy the
     epochs it fired, ran and was degraded, the alarm and its first epoch and time, the drive's
     duration and the seconds judged. ``digest``: the verdict digest ``host-sim detect`` and the
-    firmware compute. ``calibration``: the car's calibration record this drive leaves (92 bytes;
+    firmware compute. ``calibration``: the car's calibration record this drive leaves (116 bytes;
     ``None`` when there is nothing to store), to pass to the car's next drive. ``timing``: the
     engine's wall-clock seconds reading and decoding the drive (``read_s``), synchronising it into
     the detector's samples (``sync_s``), in the detector core (``detector_s``) and writing the

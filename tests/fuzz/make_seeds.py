@@ -111,17 +111,22 @@ open("seeds/profile/mixed", "wb").write(dbc.encode() + b"\xff" + mp.encode() + b
 # each (a flipped bit, a cut), and a store's flash image holding one of them.
 import zlib
 os.makedirs("seeds/calibration", exist_ok=True)
-# Version 2 carries the car's anchors (scale, two delays, gyro scale error); version 1 (without
-# them) is still read.
-def ggcr(scale, dpos, dvel, learnt, drives, bias, bias_w, gse, gsd, s0, k, vs, dt, anchors=None):
+# Version 3 carries the car's anchors (scale, two delays, gyro scale error) and its noise's
+# anchors (s0, k, velocity noise, two each); version 2 (without the noise's) and version 1
+# (without any) are still read.
+def ggcr(scale, dpos, dvel, learnt, drives, bias, bias_w, gse, gsd, s0, k, vs, dt, anchors=None, noise_anchors=None):
     p = struct.pack("<ffffHHffff2f2f2ff", scale, dpos, dvel, learnt, drives, 0, bias, bias_w, gse, gsd, *s0, *k, *vs, dt)
     if anchors is not None:
         p += struct.pack("<4f", *anchors)
-    b = b"GGCR" + struct.pack("<HH", 1 if anchors is None else 2, len(p)) + p
+    if noise_anchors is not None:
+        p += struct.pack("<6f", *noise_anchors)
+    version = 1 if anchors is None else 2 if noise_anchors is None else 3
+    b = b"GGCR" + struct.pack("<HH", version, len(p)) + p
     return b + struct.pack("<I", zlib.crc32(b))
 nan = float("nan")
-recs = {"no_gyro_1hz": ggcr(1.004, -0.75, nan, 9000.0, 4, nan, 0.0, 0.0, 0.05, (1.6, 2.1), (0.012, 0.011), (0.25, 0.4), 1.0, (0.998, -0.5, nan, 0.0)),
-        "gyro_10hz": ggcr(0.991, 0.125, 0.25, 600.0, 1, 0.39, 40.0, -0.01, 0.004, (1.0, 1.2), (0.01, 0.01), (0.12, 0.18), 0.1, (0.991, 0.125, 0.25, -0.02)),
+recs = {"no_gyro_1hz": ggcr(1.004, -0.75, nan, 9000.0, 4, nan, 0.0, 0.0, 0.05, (1.6, 2.1), (0.012, 0.011), (0.25, 0.4), 1.0, (0.998, -0.5, nan, 0.0), (1.4, 2.0, 0.01, 0.01, 0.22, 0.35)),
+        "gyro_10hz": ggcr(0.991, 0.125, 0.25, 600.0, 1, 0.39, 40.0, -0.01, 0.004, (1.0, 1.2), (0.01, 0.01), (0.12, 0.18), 0.1, (0.991, 0.125, 0.25, -0.02), (1.0, 1.2, 0.01, 0.01, 0.12, 0.18)),
+        "version2": ggcr(1.004, -0.75, nan, 9000.0, 4, nan, 0.0, 0.0, 0.05, (1.6, 2.1), (0.012, 0.011), (0.25, 0.4), 1.0, (0.998, -0.5, nan, 0.0)),
         "version1": ggcr(1.004, -0.75, nan, 9000.0, 4, nan, 0.0, 0.0, 0.05, (1.6, 2.1), (0.012, 0.011), (0.25, 0.4), 1.0)}
 for name, b in recs.items():
     open("seeds/calibration/" + name, "wb").write(b)

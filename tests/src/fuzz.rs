@@ -577,6 +577,9 @@ fn store(data: &[u8], record: Option<&detector_core::wire::calibration::Record>)
         anchor_scale: 1.0,
         anchor_delay_s: [0.5, f32::NAN],
         anchor_gyro_scale_error: 0.0,
+        anchor_noise_s0_m: [1.5, 1.5],
+        anchor_noise_k: [0.01, 0.01],
+        anchor_velocity_sigma_mps: [0.2, 0.3],
     });
     if block_on(s.save(&r)).is_ok() {
         match block_on(s.load()) {

@@ -2,15 +2,17 @@
 //! car, kept across drives (the board in flash, `host-sim detect --calibration` in a file).
 //!
 //! Little endian, [`RECORD_LEN`] bytes:
-//! `"GGCR" | version u16 = 2 | payload length u16 = 80 |
+//! `"GGCR" | version u16 = 3 | payload length u16 = 104 |
 //! scale f32 | delay of the position f32 | delay of the velocity f32 (NaN: none) | learnt s f32 |
 //! drives u16 | flags u16 = 0 | gyro bias deg/s f32 (NaN: none) | its weight s f32 |
 //! gyro scale error f32 | its sd f32 | s0 m f32 x 2 | k f32 x 2 | velocity sigma m/s f32 x 2 |
 //! nominal epoch s f32 | anchor scale f32 | anchor delays f32 x 2 (the velocity's NaN: none) |
-//! anchor gyro scale error f32 | crc32 u32` (CRC over all bytes before it).
+//! anchor gyro scale error f32 | anchor s0 m f32 x 2 | anchor k f32 x 2 |
+//! anchor velocity sigma m/s f32 x 2 | crc32 u32` (CRC over all bytes before it).
 //!
-//! Version 1 (76 bytes, payload 64) is the same without the anchors; it is still read, its own
-//! scale and delays taken as its anchors, so a car's calibration survives the update.
+//! Version 2 (92 bytes, payload 80) is the same without the noise's anchors, version 1 (76
+//! bytes, payload 64) without any anchor; both are still read, the record's own values taken as
+//! the anchors it lacks, so a car's calibration survives the update.
 //!
 //! [`Record::decode`] refuses a record that is short, of another magic, version or length, whose
 //! CRC does not match, or whose fields are not physically possible ([`Record::plausible`]), and
@@ -21,12 +23,14 @@ use super::le;
 
 /// The record's magic and version.
 pub const MAGIC: &[u8; 4] = b"GGCR";
-/// The record version this build writes (it reads version 1 too).
-pub const VERSION: u16 = 2;
+/// The record version this build writes (it reads versions 2 and 1 too).
+pub const VERSION: u16 = 3;
 const HEADER: usize = 8;
 /// The payload's length, bytes (the header's length field).
-pub const PAYLOAD_LEN: usize = 80;
+pub const PAYLOAD_LEN: usize = 104;
 const PAYLOAD: usize = PAYLOAD_LEN;
+/// Version 2's payload, bytes: no anchors of the noise.
+const PAYLOAD_V2: usize = 80;
 /// Version 1's payload, bytes: no anchors.
 const PAYLOAD_V1: usize = 64;
 /// The encoded record's length, bytes.
@@ -73,6 +77,13 @@ pub struct Record {
     pub anchor_delay_s: [f32; 2],
     /// The gyro scale error of the car's first record: every later drive's stays near it.
     pub anchor_gyro_scale_error: f32,
+    /// The noise of the car's first record (of its receiver class): the windows' `s0`, m, ...
+    pub anchor_noise_s0_m: [f32; 2],
+    /// ... their `k` ...
+    pub anchor_noise_k: [f32; 2],
+    /// ... and the velocity channels' quiet noise, m/s. A record's noise stays within a
+    /// bound of these, however many drives each raised it a little.
+    pub anchor_velocity_sigma_mps: [f32; 2],
 }
 
 /// Why a record was refused, and where (a byte offset into it).
@@ -128,10 +139,10 @@ impl RecordError {
     /// What was expected there.
     pub fn expected(&self) -> &'static str {
         match self {
-            RecordError::TooShort { .. } => "a calibration record of 92 bytes (76 in version 1)",
+            RecordError::TooShort { .. } => "a calibration record of 116 bytes (92 in version 2, 76 in version 1)",
             RecordError::BadMagic => "the magic \"GGCR\"",
-            RecordError::BadVersion { .. } => "version 2 or 1",
-            RecordError::BadLength { .. } => "a payload of 80 bytes (64 in version 1)",
+            RecordError::BadVersion { .. } => "version 3, 2 or 1",
+            RecordError::BadLength { .. } => "a payload of 104 bytes (80 in version 2, 64 in version 1)",
             RecordError::BadCrc { .. } => "the CRC-32 of the bytes before it",
             RecordError::Implausible { field, .. } => field,
         }
@@ -156,6 +167,9 @@ mod at {
     pub const ANCHOR_SCALE: usize = 72;
     pub const ANCHOR_DELAY: usize = 76;
     pub const ANCHOR_GSCALE: usize = 84;
+    pub const ANCHOR_S0: usize = 88;
+    pub const ANCHOR_K: usize = 96;
+    pub const ANCHOR_SIGMA: usize = 104;
 }
 
 /// The wheel-speed scales that are physically possible (a wheel-speed signal 20 % slow or 25 %
@@ -170,7 +184,7 @@ impl Record {
     pub fn check(&self) -> Result<(), RecordError> {
         // One table and one loop (each field as its own `if` took 1.3 KB of flash): the value,
         // its range, whether NaN is allowed (none) and what is expected, at its offset.
-        let fields: [(f32, f32, f32, bool, &'static str, usize); 19] = [
+        let fields: [(f32, f32, f32, bool, &'static str, usize); 25] = [
             (self.scale, SCALE_MIN, SCALE_MAX, false, "scale between 0.8 and 1.25", at::SCALE),
             (self.delay_s[0], -MAX_DELAY_S, MAX_DELAY_S, false, "a position delay within 3 s", at::DELAY),
             (self.delay_s[1], -MAX_DELAY_S, MAX_DELAY_S, true, "a velocity delay within 3 s, or NaN", at::DELAY + 4),
@@ -190,6 +204,12 @@ impl Record {
             (self.anchor_delay_s[0], -MAX_DELAY_S, MAX_DELAY_S, false, "an anchor position delay within 3 s", at::ANCHOR_DELAY),
             (self.anchor_delay_s[1], -MAX_DELAY_S, MAX_DELAY_S, true, "an anchor velocity delay within 3 s, or NaN", at::ANCHOR_DELAY + 4),
             (self.anchor_gyro_scale_error, -0.2, 0.2, false, "an anchor gyro scale error within 0.2", at::ANCHOR_GSCALE),
+            (self.anchor_noise_s0_m[0], 0.0, 1000.0, false, "window noise s0 between 0 and 1000 m", at::ANCHOR_S0),
+            (self.anchor_noise_s0_m[1], 0.0, 1000.0, false, "window noise s0 between 0 and 1000 m", at::ANCHOR_S0 + 4),
+            (self.anchor_noise_k[0], 0.0, 10.0, false, "window noise k between 0 and 10", at::ANCHOR_K),
+            (self.anchor_noise_k[1], 0.0, 10.0, false, "window noise k between 0 and 10", at::ANCHOR_K + 4),
+            (self.anchor_velocity_sigma_mps[0], 0.0, 100.0, false, "velocity noise between 0 and 100 m/s", at::ANCHOR_SIGMA),
+            (self.anchor_velocity_sigma_mps[1], 0.0, 100.0, false, "velocity noise between 0 and 100 m/s", at::ANCHOR_SIGMA + 4),
         ];
         for (v, lo, hi, nan_ok, field, at) in fields {
             if !(nan_ok && v.is_nan() || v.is_finite() && v >= lo && v <= hi) {
@@ -229,6 +249,9 @@ impl Record {
             put(at::S0 + 4 * i, &self.noise_s0_m[i].to_le_bytes());
             put(at::K + 4 * i, &self.noise_k[i].to_le_bytes());
             put(at::SIGMA + 4 * i, &self.velocity_sigma_mps[i].to_le_bytes());
+            put(at::ANCHOR_S0 + 4 * i, &self.anchor_noise_s0_m[i].to_le_bytes());
+            put(at::ANCHOR_K + 4 * i, &self.anchor_noise_k[i].to_le_bytes());
+            put(at::ANCHOR_SIGMA + 4 * i, &self.anchor_velocity_sigma_mps[i].to_le_bytes());
         }
         put(at::DT, &self.nominal_dt_s.to_le_bytes());
         put(at::ANCHOR_SCALE, &self.anchor_scale.to_le_bytes());
@@ -242,8 +265,9 @@ impl Record {
         b
     }
 
-    /// A record from its bytes (extra bytes after it are ignored), validated: version 2, or
-    /// version 1 with its own scale and delays as its anchors.
+    /// A record from its bytes (extra bytes after it are ignored), validated: version 3, or
+    /// version 2 with its own noise as the noise's anchors, or version 1 with its own values as
+    /// every anchor.
     pub fn decode(b: &[u8]) -> Result<Record, RecordError> {
         if b.len() < HEADER {
             return Err(RecordError::TooShort { len: b.len() });
@@ -254,6 +278,7 @@ impl Record {
         let version = le::u16(b, 4).unwrap_or(0);
         let payload = match version {
             VERSION => PAYLOAD,
+            2 => PAYLOAD_V2,
             1 => PAYLOAD_V1,
             _ => return Err(RecordError::BadVersion { version }),
         };
@@ -273,6 +298,8 @@ impl Record {
         let (scale, delay_s) = (f(at::SCALE), [f(at::DELAY), f(at::DELAY + 4)]);
         let gse = f(at::GSCALE);
         let (anchor_scale, anchor_delay_s, anchor_gyro_scale_error) = if version == 1 { (scale, delay_s, gse) } else { (f(at::ANCHOR_SCALE), [f(at::ANCHOR_DELAY), f(at::ANCHOR_DELAY + 4)], f(at::ANCHOR_GSCALE)) };
+        let (s0, k, sigma) = ([f(at::S0), f(at::S0 + 4)], [f(at::K), f(at::K + 4)], [f(at::SIGMA), f(at::SIGMA + 4)]);
+        let noise_anchors = if version < 3 { (s0, k, sigma) } else { ([f(at::ANCHOR_S0), f(at::ANCHOR_S0 + 4)], [f(at::ANCHOR_K), f(at::ANCHOR_K + 4)], [f(at::ANCHOR_SIGMA), f(at::ANCHOR_SIGMA + 4)]) };
         let r = Record {
             scale,
             delay_s,
@@ -282,13 +309,16 @@ impl Record {
             gyro_bias_weight_s: f(at::BIAS_W),
             gyro_scale_error: gse,
             gyro_scale_sd: f(at::GSCALE_SD),
-            noise_s0_m: [f(at::S0), f(at::S0 + 4)],
-            noise_k: [f(at::K), f(at::K + 4)],
-            velocity_sigma_mps: [f(at::SIGMA), f(at::SIGMA + 4)],
+            noise_s0_m: s0,
+            noise_k: k,
+            velocity_sigma_mps: sigma,
             nominal_dt_s: f(at::DT),
             anchor_scale,
             anchor_delay_s,
             anchor_gyro_scale_error,
+            anchor_noise_s0_m: noise_anchors.0,
+            anchor_noise_k: noise_anchors.1,
+            anchor_velocity_sigma_mps: noise_anchors.2,
         };
         r.check()?;
         Ok(r)
@@ -316,6 +346,9 @@ mod tests {
             anchor_scale: 0.9951,
             anchor_delay_s: [0.25, f32::NAN],
             anchor_gyro_scale_error: -0.012,
+            anchor_noise_s0_m: [1.1, 1.3],
+            anchor_noise_k: [0.01, 0.011],
+            anchor_velocity_sigma_mps: [0.13, 0.18],
         }
     }
 
@@ -348,8 +381,8 @@ mod tests {
             assert!(Record::decode(&c).is_err(), "bit {i}");
         }
         let mut c = b;
-        c[4] = 3;
-        assert_eq!(Record::decode(&c), Err(RecordError::BadVersion { version: 3 }));
+        c[4] = 4;
+        assert_eq!(Record::decode(&c), Err(RecordError::BadVersion { version: 4 }));
         // A well-formed record of an impossible car: refused by field, with its offset.
         let mut r = example();
         r.scale = 1.5;
@@ -368,6 +401,23 @@ mod tests {
         r = example();
         r.anchor_gyro_scale_error = 0.3;
         assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 84);
+        r = example();
+        r.anchor_noise_k[1] = -0.01;
+        assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 100);
+        r = example();
+        r.anchor_velocity_sigma_mps[0] = f32::NAN;
+        assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 104);
+    }
+
+    /// The record as an older build wrote it: the first `payload` bytes of this version's,
+    /// under that version's header and CRC (the bytes and their length).
+    fn older(r: &Record, version: u16, payload: usize) -> ([u8; RECORD_LEN], usize) {
+        let mut b = r.encode();
+        b[4..6].copy_from_slice(&version.to_le_bytes());
+        b[6..8].copy_from_slice(&(payload as u16).to_le_bytes());
+        let crc = crc32(&b[..HEADER + payload]);
+        b[HEADER + payload..HEADER + payload + 4].copy_from_slice(&crc.to_le_bytes());
+        (b, HEADER + payload + 4)
     }
 
     /// A version 1 record (before the anchors) is read, its own scale and delays its anchors;
@@ -375,25 +425,42 @@ mod tests {
     #[test]
     fn a_version_1_record_is_read_with_its_own_values_as_anchors() {
         let r = example();
-        let v2 = r.encode();
-        let mut v1 = v2[..HEADER + PAYLOAD_V1 + 4].to_vec();
-        v1[4..6].copy_from_slice(&1u16.to_le_bytes());
-        v1[6..8].copy_from_slice(&(PAYLOAD_V1 as u16).to_le_bytes());
-        let crc = crc32(&v1[..HEADER + PAYLOAD_V1]);
-        v1[HEADER + PAYLOAD_V1..].copy_from_slice(&crc.to_le_bytes());
-        let d = Record::decode(&v1).unwrap();
+        let (b, n) = older(&r, 1, PAYLOAD_V1);
+        let v1 = &b[..n];
+        let d = Record::decode(v1).unwrap();
         assert_eq!((d.scale, d.anchor_scale, d.anchor_delay_s[0]), (r.scale, r.scale, r.delay_s[0]));
         assert_eq!(d.anchor_gyro_scale_error, r.gyro_scale_error);
         assert!(d.anchor_delay_s[1].is_nan());
         assert_eq!(d.learnt_s, r.learnt_s);
-        // Written back, it is a version 2 record.
+        assert_eq!((d.anchor_noise_s0_m, d.anchor_noise_k, d.anchor_velocity_sigma_mps), (r.noise_s0_m, r.noise_k, r.velocity_sigma_mps));
+        // Written back, it is a version 3 record.
         assert_eq!(&d.encode()[4..6], &VERSION.to_le_bytes());
         assert_eq!(Record::decode(&v1[..v1.len() - 1]), Err(RecordError::TooShort { len: 75 }));
-        let mut wrong = v1.clone();
+        let mut wrong = b;
         wrong[6..8].copy_from_slice(&(PAYLOAD as u16).to_le_bytes());
-        assert_eq!(Record::decode(&wrong), Err(RecordError::BadLength { length: PAYLOAD as u16 }));
-        let mut bad = v1;
+        assert_eq!(Record::decode(&wrong[..n]), Err(RecordError::BadLength { length: PAYLOAD as u16 }));
+        let mut bad = b;
         bad[20] ^= 1;
-        assert_eq!(Record::decode(&bad).unwrap_err().offset(), HEADER + PAYLOAD_V1);
+        assert_eq!(Record::decode(&bad[..n]).unwrap_err().offset(), HEADER + PAYLOAD_V1);
+    }
+
+    /// A version 2 record (before the noise's anchors) is read with its anchors of scale,
+    /// delays and gyro scale, and its own noise as the noise's anchors.
+    #[test]
+    fn a_version_2_record_is_read_with_its_own_noise_as_the_noise_anchors() {
+        let r = example();
+        let (b, n) = older(&r, 2, PAYLOAD_V2);
+        let v2 = &b[..n];
+        assert_eq!(v2.len(), 92);
+        let d = Record::decode(v2).unwrap();
+        assert_eq!((d.anchor_scale, d.anchor_delay_s[0], d.anchor_gyro_scale_error), (r.anchor_scale, r.anchor_delay_s[0], r.anchor_gyro_scale_error));
+        assert_eq!((d.anchor_noise_s0_m, d.anchor_noise_k, d.anchor_velocity_sigma_mps), (r.noise_s0_m, r.noise_k, r.velocity_sigma_mps));
+        assert_eq!(&d.encode()[4..6], &VERSION.to_le_bytes());
+        let mut wrong = b;
+        wrong[6..8].copy_from_slice(&(PAYLOAD_V1 as u16).to_le_bytes());
+        assert_eq!(Record::decode(&wrong[..n]), Err(RecordError::BadLength { length: PAYLOAD_V1 as u16 }));
+        let mut bad = b;
+        bad[90] ^= 1;
+        assert_eq!(Record::decode(&bad[..n]).unwrap_err().offset(), HEADER + PAYLOAD_V2);
     }
 }

@@ -312,6 +312,9 @@ mod tests {
             anchor_scale: 0.99,
             anchor_delay_s: [0.375, 0.25],
             anchor_gyro_scale_error: -0.01,
+            anchor_noise_s0_m: [1.2, 1.4],
+            anchor_noise_k: [0.011, 0.012],
+            anchor_velocity_sigma_mps: [0.14, 0.2],
         }
     }
 
@@ -331,7 +334,7 @@ mod tests {
     }
 
     /// A record an older firmware kept (version 1, 76 bytes, without the anchors) is read after
-    /// the update, its own scale and delays its anchors, and the next save writes version 2:
+    /// the update, its own scale and delays its anchors, and the next save writes this version:
     /// the car's calibration survives the update.
     #[test]
     fn a_version_1_record_survives_the_update() {
@@ -350,7 +353,7 @@ mod tests {
         assert_eq!(block_on(s.load()), Loaded::Record(got));
         let mut buf = [0u8; BUF];
         let bytes = block_on(s.map.fetch_item::<&[u8]>(&mut buf, &RecordKey)).unwrap().unwrap();
-        assert_eq!((bytes.len(), &bytes[4..6]), (RECORD_LEN, &2u16.to_le_bytes()[..]));
+        assert_eq!((bytes.len(), &bytes[4..6]), (RECORD_LEN, &detector_core::wire::calibration::VERSION.to_le_bytes()[..]));
     }
 
     #[test]

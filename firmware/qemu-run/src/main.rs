@@ -95,6 +95,9 @@ fn stored_record() -> Record {
         anchor_scale: 1.0,
         anchor_delay_s: [0.0, 0.0],
         anchor_gyro_scale_error: 0.0,
+        anchor_noise_s0_m: [1.0; 2],
+        anchor_noise_k: [0.01; 2],
+        anchor_velocity_sigma_mps: [0.2; 2],
     }
 }
 

@@ -439,5 +439,7 @@ fn record_json<S: serde::Serializer>(r: &Option<detector_core::strategy::track::
         "gyro_scale_error": r.gyro_scale_error, "noise_s0_m": r.noise_s0_m, "noise_k": r.noise_k,
         "velocity_sigma_mps": r.velocity_sigma_mps, "anchor_scale": r.anchor_scale,
         "anchor_delay_position_s": r.anchor_delay_s[0], "anchor_delay_velocity_s": f(r.anchor_delay_s[1]),
+        "anchor_gyro_scale_error": r.anchor_gyro_scale_error, "anchor_noise_s0_m": r.anchor_noise_s0_m,
+        "anchor_noise_k": r.anchor_noise_k, "anchor_velocity_sigma_mps": r.anchor_velocity_sigma_mps,
     })).serialize(s)
 }
