@@ -411,6 +411,55 @@ pub fn read_calibration(path: &std::path::Path) -> Option<Record> {
     }
 }
 
+/// A calibration record as JSON: every field, the anchors beside the values (NaN as null).
+pub fn record_json(r: &Record) -> Value {
+    let f = |v: f32| if v.is_finite() { Some(v) } else { None };
+    json!({
+        "scale": r.scale, "delay_position_s": r.delay_s[0], "delay_velocity_s": f(r.delay_s[1]),
+        "learnt_s": r.learnt_s, "drives": r.drives, "gyro_bias_degps": f(r.gyro_bias_degps),
+        "gyro_bias_weight_s": r.gyro_bias_weight_s, "gyro_scale_error": r.gyro_scale_error,
+        "gyro_scale_sd": r.gyro_scale_sd, "noise_s0_m": r.noise_s0_m, "noise_k": r.noise_k,
+        "velocity_sigma_mps": r.velocity_sigma_mps, "nominal_dt_s": r.nominal_dt_s, "anchor_scale": r.anchor_scale,
+        "anchor_delay_position_s": r.anchor_delay_s[0], "anchor_delay_velocity_s": f(r.anchor_delay_s[1]),
+        "anchor_gyro_scale_error": r.anchor_gyro_scale_error, "anchor_noise_s0_m": r.anchor_noise_s0_m,
+        "anchor_noise_k": r.anchor_noise_k, "anchor_velocity_sigma_mps": r.anchor_velocity_sigma_mps,
+    })
+}
+
+/// A calibration record for a reader: what each field means, its value and the car's anchor.
+pub fn record_text(r: &Record) -> Vec<String> {
+    let opt = |v: f32, unit: &str| if v.is_finite() { format!("{v:.3} {unit}") } else { "none".to_string() };
+    let pair = |a: [f32; 2], d: usize| format!("{:.d$} / {:.d$}", a[0], a[1]);
+    vec![
+        format!("learnt over {} drives, {:.0} s of driving, with a receiver of {} s epochs", r.drives, r.learnt_s, r.nominal_dt_s),
+        format!("wheel-speed scale (GNSS over wheels) {:.4}, the car's anchor {:.4}", r.scale, r.anchor_scale),
+        format!(
+            "GNSS late behind the vehicle signals (negative: the vehicle signals late): position {}, velocity {}; anchors {}, {}",
+            opt(r.delay_s[0], "s"),
+            opt(r.delay_s[1], "s"),
+            opt(r.anchor_delay_s[0], "s"),
+            opt(r.anchor_delay_s[1], "s")
+        ),
+        if r.gyro_bias_degps.is_finite() {
+            format!(
+                "gyro: bias {:.3} deg/s ({:.0} s of standstill behind it), scale error {:.4} (sd {:.4}), anchor {:.4}",
+                r.gyro_bias_degps, r.gyro_bias_weight_s, r.gyro_scale_error, r.gyro_scale_sd, r.anchor_gyro_scale_error
+            )
+        } else {
+            "gyro: none measured".to_string()
+        },
+        format!(
+            "noise: the windows' s0 {} m and k {} (10 s / 30 s), velocity {} m/s (along / across); anchors {} m, {}, {} m/s (the kept noise stays within twice them)",
+            pair(r.noise_s0_m, 2),
+            pair(r.noise_k, 4),
+            pair(r.velocity_sigma_mps, 3),
+            pair(r.anchor_noise_s0_m, 2),
+            pair(r.anchor_noise_k, 4),
+            pair(r.anchor_velocity_sigma_mps, 3)
+        ),
+    ]
+}
+
 /// Writes what the drive learnt to `path` (whole or not at all), unless there is nothing to
 /// store; says what happened (JSON: `loaded`, `written`, `contradicted`, `said`).
 pub fn write_calibration(path: &std::path::Path, stored: Option<&Record>, learnt: Option<&Record>, verdicts: &[Verdict]) -> anyhow::Result<Value> {

@@ -148,8 +148,8 @@ fn detect_text_output_has_a_summary() {
 }
 
 /// `detect --calibration FILE`: a car's first drive says it is learning and writes the record;
-/// its second drive starts from it (calibrated from the first status line); a damaged record is
-/// reported with its byte, moved aside, and the drive starts afresh.
+/// its second drive starts from it (calibrated from the first status line), and `inspect` shows
+/// it; a damaged record is reported with its byte, moved aside, and the drive starts afresh.
 #[test]
 fn the_calibration_file_carries_the_car_across_drives() {
     let Some(d) = data_dir("the_calibration_file_carries_the_car_across_drives") else { return };
@@ -179,10 +179,21 @@ fn the_calibration_file_carries_the_car_across_drives() {
     assert_eq!(last["summary"]["alarm"], false);
     let second = detector_core::wire::calibration::Record::decode(&std::fs::read(&file).unwrap()).unwrap();
     assert_eq!(second.drives, 2);
+    // `inspect` reads it: its fields and the car's anchors, as text and as JSON.
+    let out = host_sim(&["inspect", file.to_str().unwrap()]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(out.status.success() && text.contains("calibration record, version 3") && text.contains("learnt over 2 drives"), "{text}");
+    let out = host_sim(&["inspect", "--json", file.to_str().unwrap()]);
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((j["drives"].as_u64(), j["anchor_scale"].as_f64()), (Some(2), Some(second.anchor_scale as f64)), "{j}");
     // A damaged record: reported with its byte, moved aside, and the drive learns afresh.
     let mut bad = std::fs::read(&file).unwrap();
     bad[9] ^= 0x10;
     std::fs::write(&file, &bad).unwrap();
+    // `inspect` refuses it with the byte where it failed (the CRC's) and exit code 2.
+    let out = host_sim(&["inspect", file.to_str().unwrap()]);
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(out.status.code() == Some(2) && err.contains("byte 112: expected the CRC-32"), "{err}");
     let (last, status, err) = run("denmark_2021-07-26_session1.csv");
     assert!(err.contains("byte ") && err.contains("expected"), "{err}");
     assert_eq!(std::fs::read(dir.join("car.bad")).unwrap(), bad, "the bad record is kept aside");

@@ -432,14 +432,5 @@ pub struct CalibratedRate {
 
 fn record_json<S: serde::Serializer>(r: &Option<detector_core::strategy::track::calibration::Record>, s: S) -> Result<S::Ok, S::Error> {
     use serde::Serialize as _;
-    let f = |v: f32| if v.is_finite() { Some(v) } else { None };
-    r.map(|r| serde_json::json!({
-        "scale": r.scale, "delay_position_s": r.delay_s[0], "delay_velocity_s": f(r.delay_s[1]),
-        "learnt_s": r.learnt_s, "drives": r.drives, "gyro_bias_degps": f(r.gyro_bias_degps),
-        "gyro_scale_error": r.gyro_scale_error, "noise_s0_m": r.noise_s0_m, "noise_k": r.noise_k,
-        "velocity_sigma_mps": r.velocity_sigma_mps, "anchor_scale": r.anchor_scale,
-        "anchor_delay_position_s": r.anchor_delay_s[0], "anchor_delay_velocity_s": f(r.anchor_delay_s[1]),
-        "anchor_gyro_scale_error": r.anchor_gyro_scale_error, "anchor_noise_s0_m": r.anchor_noise_s0_m,
-        "anchor_noise_k": r.anchor_noise_k, "anchor_velocity_sigma_mps": r.anchor_velocity_sigma_mps,
-    })).serialize(s)
+    r.as_ref().map(crate::detect::record_json).serialize(s)
 }

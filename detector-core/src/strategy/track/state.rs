@@ -32,11 +32,11 @@ pub(super) const NOISE_RISE_PER_DRIVE: f32 = 1.25;
 /// A record's noise is at most this factor over the car's anchor (its first record's, of the
 /// same receiver class), however many drives raised it by `NOISE_RISE_PER_DRIVE` each. The
 /// honest records of sddi_commuter's and css_canedge's drives in turn (ten and six drives) stay
-/// within 1.25 of their first and within 1.7 of their quietest (sddi_commuter's `s0` 2.5 to
+/// within 1.26 of their first and within 1.7 of their quietest (sddi_commuter's `s0` 2.5 to
 /// 4.2 m, css_canedge's velocity noise 0.13 to 0.17 m/s); the live noise follows the
 /// environment within the drive whatever the prior. On css_canedge session 1 a record at this
 /// bound (twice session 0's noise) finds a drift of 1 m/s along a minute in and one across 300 s
-/// in when the honest record does (12 and 23 s); one of the inflated record above (what nine
+/// in when the honest record does (12 and 23 s); one of the inflated record above (about what nine
 /// drives at `NOISE_RISE_PER_DRIVE` reach) 35 and 189 s.
 pub(super) const NOISE_ANCHOR_BAND: f32 = 2.0;
 
