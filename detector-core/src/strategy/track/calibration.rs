@@ -436,11 +436,16 @@ impl Calibration {
             set.best = free;
         } else {
             // Calibrated: the delay moves one candidate per dwell, within its bound around a
-            // stored record and the car's anchor.
+            // stored record and the car's anchor; on a drive from a stored record, for its
+            // first warm-up of learning, to the fits' choice within that bound at once (a
+            // logger's latency differs from boot to boot: sddi_commuter's 0.5 to 1.25 s).
             let (lo, hi) = set.band(span);
             // max/min, not clamp: clamp panics on bounds it cannot prove ordered.
             let target = free.max(lo).min(hi);
-            if target != set.best && set.dwell_s >= lim.delay_dwell_s {
+            let starting = set.anchor.is_some() && set.learnt_s <= lim.warmup_s;
+            if starting {
+                set.best = target;
+            } else if target != set.best && set.dwell_s >= lim.delay_dwell_s {
                 set.best = if target > set.best { set.best + 1 } else { set.best - 1 };
                 set.dwell_s = 0.0;
             }
@@ -696,6 +701,37 @@ mod tests {
         assert_eq!(c.free_delay_s(Source::Velocity), 1.5);
         assert!(c.delay_s(Source::Velocity) <= 0.5, "delay {}", c.delay_s(Source::Velocity));
         assert_eq!(c.contradiction(), Some(Contradiction::Delay));
+    }
+
+    /// A drive from a stored record takes the delay its own fits choose within the bound at
+    /// once during its first warm-up of learning (a logger's latency differs from boot to boot),
+    /// and never beyond the bound.
+    #[test]
+    fn a_drive_from_a_record_finds_its_own_delay_within_the_bound_at_first() {
+        let mut rec = record();
+        rec.delay_s[1] = -0.5;
+        rec.anchor_delay_s[1] = -0.5;
+        let lim = CalLimits::default();
+        let mut c = Calibration::from_record(lim, &rec);
+        let v = |t: f32| 15.0 + 5.0 * libm::sinf(core::f32::consts::TAU * t / 20.0);
+        let feed = |c: &mut Calibration, from: usize, secs: usize, late: f32| {
+            for s in from..from + secs {
+                let t = s as f32;
+                let mut d = [(0.0f32, 0.0f32); DELAYS];
+                for (k, x) in d.iter_mut().enumerate() {
+                    *x = (0.0, v(t - delay_of(k) + late) / 0.99);
+                }
+                c.learn(Source::Velocity, (0.0, v(t)), &d, (1.0, 0.0), 1.0, 0.15, 5.0);
+            }
+        };
+        // The GNSS velocity 0.25 s late this drive: 0.75 s (six candidates) from the record's,
+        // within its bound; one candidate per dwell would take three minutes.
+        feed(&mut c, 0, lim.warmup_s as usize, 0.25);
+        assert_eq!(c.delay_s(Source::Velocity), 0.25);
+        // And never beyond the bound: 1.5 s from the record is held at 1 s from it.
+        let mut c = Calibration::from_record(lim, &rec);
+        feed(&mut c, 0, lim.warmup_s as usize, 1.0);
+        assert_eq!((c.free_delay_s(Source::Velocity), c.delay_s(Source::Velocity)), (1.0, 0.5));
     }
 
     #[test]
