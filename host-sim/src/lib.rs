@@ -16,7 +16,7 @@
 //! - [`live`]: the detector on live inputs (SocketCAN, serial, stdin), JSON lines as they come;
 //! - [`bench`]: the benchmarks the command line prints.
 
-pub use gnss_data::{attack, input, qemu_input, replay, sim, tracks};
+pub use gnss_data::{attack, input, nuisance, qemu_input, replay, sim, tracks};
 
 pub mod output;
 pub mod detect;

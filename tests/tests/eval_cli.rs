@@ -77,6 +77,14 @@ fn eval_writes_report_markdown_and_figures() {
             assert!(h["recorded"] == true && h["false_alarms"] == 0 && h["contradicted"] == false, "{src}: {h}");
             assert!(h["tyre_change_found_s"].is_number(), "{src}: a 3 % tyre change is found: {h}");
         }
+        // The judged drive under every kind of nuisance, from the record: passed or
+        // contradicted, never a false alarm.
+        let kinds = c["nuisance"].as_array().unwrap();
+        assert_eq!(kinds.len(), host_sim::nuisance::NuisanceKind::ALL.len(), "{src}: {c}");
+        for k in kinds {
+            assert_eq!(k["runs"].as_u64(), Some(host_sim::eval::calibrated::CALIBRATED_NUISANCE_DRAWS as u64), "{src}: {k}");
+            assert_eq!(k["uncontradicted_alarms"], 0, "{src}: a false alarm from the record: {k}");
+        }
     }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("Table 3") && md.contains("| turn-by-turn |"));

@@ -13,14 +13,15 @@
 //! evaluation.
 
 use super::plan::{EvalOptions, DRIFT_SWEEP_MPS, WINDOW_S};
-use super::results::{CalibratedCar, CalibratedRate, HeldOutDrive, SweepCounts};
+use super::results::{CalibratedCar, CalibratedNuisance, CalibratedRate, HeldOutDrive, SweepCounts};
 use super::run::{receiver_class, verdicts_calibrated, Folds};
 use super::stats::alarm_episodes;
 use crate::dataset::Drive;
 use detector_core::fusion::Reason;
+use detector_core::strategy::StrategyId;
 use detector_core::strategy::track::calibration::Record;
 use gnss_data::attack::{self, AttackKind, AttackParams};
-use gnss_data::nuisance::{self, Nuisance};
+use gnss_data::nuisance::{self, Nuisance, NuisanceKind};
 use gnss_data::replay;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -32,6 +33,8 @@ pub const CALIBRATED_FIRST_ONSET_S: f64 = 20.0;
 pub const TYRE_CHANGE: f64 = 1.03;
 /// Scenarios per rate and direction on the judged drive (spread over its candidate onsets).
 pub const CALIBRATED_SCENARIOS: usize = 20;
+/// Draws of each nuisance kind on the judged drive, from the record.
+pub const CALIBRATED_NUISANCE_DRAWS: usize = 4;
 
 /// Every source with two or more drives with wheel speed: its last drive judged calibrated.
 pub fn calibrated_cars(drives: &[Drive], o: &EvalOptions, folds: &Folds) -> BTreeMap<String, CalibratedCar> {
@@ -71,6 +74,40 @@ fn judge_clean(d: &Drive, o: &EvalOptions, folds: &Folds, record: Option<&Record
     let t0 = tv.first().map_or(0.0, |v| v.t);
     let found = tv.iter().find(|v| v.reasons.contains(Reason::CalibrationContradicted)).map(|v| v.t - t0);
     (alarm_episodes(&clean), contradicted, found)
+}
+
+/// The judged drive `d` under [`CALIBRATED_NUISANCE_DRAWS`] draws of every nuisance kind (seeds
+/// of their own), each judged from `record`: alarms, contradictions, and alarms without one.
+fn nuisance_from_record(d: &Drive, o: &EvalOptions, folds: &Folds, record: Option<&Record>) -> Vec<CalibratedNuisance> {
+    let hz = d.profile.nominal_dt_s.recip() as f64;
+    NuisanceKind::ALL
+        .par_iter()
+        .map(|&k| {
+            let runs: Vec<(bool, bool, bool)> = (0..CALIBRATED_NUISANCE_DRAWS)
+                .into_par_iter()
+                .map(|v| {
+                    let seed = o.seed.wrapping_mul(1_000_003).wrapping_add((500_000 + k as usize * 100 + v) as u64);
+                    let n = Nuisance::draw(k, seed, d.hours() * 3600.0, hz);
+                    let (samples, _) = replay::synchronize(&nuisance::apply(&d.replay, &n, seed), o.sync);
+                    let (v, _) = verdicts_calibrated(d, &samples, o, folds, record);
+                    let contradicted = v.iter().any(|x| x.reasons.contains(Reason::CalibrationContradicted));
+                    // A check that fired: any strategy but the track check, whose contradiction
+                    // fires it too, or the track check's own windows and velocity test.
+                    let checks = [Reason::Track10s, Reason::Track30s, Reason::VelocityAlong, Reason::VelocityAcross];
+                    let other = v.iter().any(|x| x.fired.iter().any(|st| st != StrategyId::Track) || checks.iter().any(|&r| x.reasons.contains(r)));
+                    (v.iter().any(|x| x.alarm), contradicted, other)
+                })
+                .collect();
+            CalibratedNuisance {
+                kind: k.name(),
+                runs: runs.len(),
+                alarmed: runs.iter().filter(|r| r.0).count(),
+                contradicted: runs.iter().filter(|r| r.1).count(),
+                uncontradicted_alarms: runs.iter().filter(|r| r.0 && !r.1).count(),
+                other_checks_fired: runs.iter().filter(|r| r.2).count(),
+            }
+        })
+        .collect()
 }
 
 fn car(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> CalibratedCar {
@@ -136,5 +173,6 @@ fn car(drives: &[&Drive], o: &EvalOptions, folds: &Folds) -> CalibratedCar {
         onsets: onsets.len(),
         sweep: rates,
         every_drive,
+        nuisance: nuisance_from_record(d, o, folds, record.as_ref()),
     }
 }

@@ -391,6 +391,12 @@ fn calibrated_cars(r: &Report) -> String {
             let _ = writeln!(s, "| {car} | {} m/s | {}/{}/{} of {} | {}/{}/{} of {} | {} |", p.rate_mps, a.within_10s, a.within_30s, a.within_60s, a.scenarios, x.within_10s, x.within_30s, x.within_60s, x.scenarios, p.pre_onset_alarms);
         }
     }
+    let _ = writeln!(s, "\nThe judged drive under each kind of the nuisance suite (draws of their own), from the record: another installation meeting the car's record, which must pass or contradict it. An alarm without the contradiction is a false alarm.\n\n| car | nuisance | draws | alarmed | contradicted | alarms without the contradiction | another check fired |\n|---|---|---|---|---|---|---|");
+    for (car, v) in c {
+        for n in &v.nuisance {
+            let _ = writeln!(s, "| {car} | {} | {} | {} | {} | {} | {} |", n.kind, n.runs, n.alarmed, n.contradicted, n.uncontradicted_alarms, n.other_checks_fired);
+        }
+    }
     s.push('\n');
     s
 }

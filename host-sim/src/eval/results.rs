@@ -404,6 +404,24 @@ pub struct CalibratedCar {
     /// Every drive of the car judged clean, and on tyres 3 % larger, with the record learnt over
     /// all its other drives (the drives a car will make after these are judged the same way).
     pub every_drive: Vec<HeldOutDrive>,
+    /// The judged drive under each kind of the nuisance suite, judged from the record: another
+    /// installation meeting a car's record, which it must either pass or contradict.
+    pub nuisance: Vec<CalibratedNuisance>,
+}
+
+/// One kind of nuisance on a calibrated car's judged drive, from its record.
+#[derive(Clone, Debug, Serialize)]
+pub struct CalibratedNuisance {
+    pub kind: &'static str,
+    /// Draws of the kind (seeded), and how many raised the alarm.
+    pub runs: usize,
+    pub alarmed: usize,
+    /// Draws that contradicted the record (the designed answer to another installation).
+    pub contradicted: usize,
+    /// Draws that raised the alarm without contradicting the record: false alarms.
+    pub uncontradicted_alarms: usize,
+    /// Draws where a check other than the contradiction fired, contradicted or not.
+    pub other_checks_fired: usize,
 }
 
 /// One drive of a calibrated car judged with the record its other drives left.
