@@ -283,6 +283,16 @@ fn a_spoofer_on_every_drive_cannot_walk_the_gyro_scale() {
     }
 }
 
+/// A fresh directory `name` holding `car.ggcr`, the record css_canedge session 0 leaves: the
+/// directory, the record's path and css_canedge's drives.
+fn session0_record(d: &std::path::Path, name: &str) -> (std::path::PathBuf, std::path::PathBuf, std::path::PathBuf) {
+    let dir = fresh_dir(name);
+    let (file, css) = (dir.join("car.ggcr"), d.join("drives/css_canedge"));
+    let out = host_sim(&["detect", "--calibration", file.to_str().unwrap(), css.join("denmark_2021-07-26_session0.csv").to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    (dir, file, css)
+}
+
 /// A logger whose latency differs from boot to boot: css_canedge session 1 with its vehicle
 /// signals late (the nuisance suite's `vehicle-late`), judged from session 0's record. 0.79 s
 /// late (seed 1), within the delay's bound of the record, is found by the drive's own fits in
@@ -292,11 +302,8 @@ fn a_spoofer_on_every_drive_cannot_walk_the_gyro_scale() {
 #[test]
 fn a_stored_record_finds_this_drives_own_delay_within_its_bound() {
     let Some(d) = data_dir("a_stored_record_finds_this_drives_own_delay_within_its_bound") else { return };
-    let dir = fresh_dir("late");
-    let (file, late) = (dir.join("car.ggcr"), dir.join("late.csv"));
-    let css = d.join("drives/css_canedge");
-    let out = host_sim(&["detect", "--calibration", file.to_str().unwrap(), css.join("denmark_2021-07-26_session0.csv").to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (dir, file, css) = session0_record(&d, "late");
+    let late = dir.join("late.csv");
     let record = std::fs::read(&file).unwrap();
     for (seed, contradicted) in [("1", false), ("2", true)] {
         let out = host_sim(&["nuisance", "--kind", "vehicle-late", "--seed", seed, "-o", late.to_str().unwrap(), css.join("denmark_2021-07-26_session1.csv").to_str().unwrap()]);
@@ -324,11 +331,8 @@ fn a_stored_record_finds_this_drives_own_delay_within_its_bound() {
 #[test]
 fn added_noise_raises_the_stored_noise_a_quarter_per_drive_and_to_twice_the_anchor_at_most() {
     let Some(d) = data_dir("added_noise_raises_the_stored_noise_a_quarter_per_drive_and_to_twice_the_anchor_at_most") else { return };
-    let dir = fresh_dir("noise");
-    let (file, noisy) = (dir.join("car.ggcr"), dir.join("noisy.csv"));
-    let css = d.join("drives/css_canedge");
-    let out = host_sim(&["detect", "--calibration", file.to_str().unwrap(), css.join("denmark_2021-07-26_session0.csv").to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (dir, file, css) = session0_record(&d, "noise");
+    let noisy = dir.join("noisy.csv");
     let first = detector_core::wire::calibration::Record::decode(&std::fs::read(&file).unwrap()).unwrap();
     let noise = |r: &detector_core::wire::calibration::Record| [r.noise_s0_m[0], r.noise_s0_m[1], r.noise_k[0], r.noise_k[1], r.velocity_sigma_mps[0], r.velocity_sigma_mps[1]];
     let anchors = |r: &detector_core::wire::calibration::Record| [r.anchor_noise_s0_m[0], r.anchor_noise_s0_m[1], r.anchor_noise_k[0], r.anchor_noise_k[1], r.anchor_velocity_sigma_mps[0], r.anchor_velocity_sigma_mps[1]];

@@ -1,8 +1,10 @@
 //! Calibrated cars: a car's calibration learnt from its earlier drives, kept as the board keeps
 //! it (a [`Record`] carried from drive to drive), then its last drive judged with it: clean
 //! (false alarms, a contradiction of the record), and under slow drifts at fixed rates with
-//! onsets from its first minute (a car that starts calibrated needs no warm-up); and once more
-//! on tyres 3 % larger, which must contradict the record (reason `calibration_contradicted`).
+//! onsets from its first minute (a car that starts calibrated needs no warm-up); once more
+//! on tyres 3 % larger, which must contradict the record (reason `calibration_contradicted`);
+//! and under draws of every kind of the nuisance suite, another installation meeting the
+//! record, which must pass or contradict it and raise no other alarm.
 //!
 //! A source's drives with wheel speed are taken in the order of their names (the sources name
 //! them by date): all but the last learn, in turn, each from the record the one before left;
