@@ -194,11 +194,11 @@ impl Record {
             (self.gyro_scale_error, -0.2, 0.2, false, "a gyro scale error within 0.2", at::GSCALE),
             (self.gyro_scale_sd, 0.0, 1.0, false, "a gyro scale sd between 0 and 1", at::GSCALE_SD),
             (self.noise_s0_m[0], 0.0, 1000.0, false, "window noise s0 between 0 and 1000 m", at::S0),
-            (self.noise_s0_m[1], 0.0, 1000.0, false, "window noise s0 between 0 and 1000 m", at::S0),
+            (self.noise_s0_m[1], 0.0, 1000.0, false, "window noise s0 between 0 and 1000 m", at::S0 + 4),
             (self.noise_k[0], 0.0, 10.0, false, "window noise k between 0 and 10", at::K),
-            (self.noise_k[1], 0.0, 10.0, false, "window noise k between 0 and 10", at::K),
+            (self.noise_k[1], 0.0, 10.0, false, "window noise k between 0 and 10", at::K + 4),
             (self.velocity_sigma_mps[0], 0.0, 100.0, false, "velocity noise between 0 and 100 m/s", at::SIGMA),
-            (self.velocity_sigma_mps[1], 0.0, 100.0, false, "velocity noise between 0 and 100 m/s", at::SIGMA),
+            (self.velocity_sigma_mps[1], 0.0, 100.0, false, "velocity noise between 0 and 100 m/s", at::SIGMA + 4),
             (self.nominal_dt_s, 0.01, 10.0, false, "a nominal epoch between 0.01 and 10 s", at::DT),
             (self.anchor_scale, SCALE_MIN, SCALE_MAX, false, "an anchor scale between 0.8 and 1.25", at::ANCHOR_SCALE),
             (self.anchor_delay_s[0], -MAX_DELAY_S, MAX_DELAY_S, false, "an anchor position delay within 3 s", at::ANCHOR_DELAY),
@@ -391,7 +391,7 @@ mod tests {
         assert!(e.expected().contains("scale"));
         r = example();
         r.noise_k[1] = f32::INFINITY;
-        assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 52);
+        assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 56);
         r = example();
         r.anchor_scale = 0.5;
         assert_eq!(Record::decode(&r.encode()).unwrap_err().offset(), 72);

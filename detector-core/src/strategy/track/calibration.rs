@@ -259,6 +259,7 @@ impl Calibration {
 
     /// A calibration that starts from a stored record: calibrated from the first epoch, its
     /// bounds centred on the record.
+    #[inline(never)]
     pub fn from_record(lim: CalLimits, r: &Record) -> Self {
         let mut c = Calibration::new(lim);
         if r.plausible().is_err() {
