@@ -640,3 +640,28 @@ fn a_receivers_sudden_wander_is_the_10_s_windows_noise_too() {
     let first = f.first();
     assert!(first.is_some_and(|t| (960.0..=962.0).contains(t)), "fired at {first:?}");
 }
+
+/// A drive from the car's stored record that learns nothing of its own (the engine started
+/// for a few seconds, the car never driven) writes the record's noise back as it was. The
+/// windows' noise blended the receiver profile's prior in again on top of the record's (the
+/// record had it already), so every such drive raised the stored noise, a quarter a time, to
+/// twice the car's anchor: a car moved in and out of its garage was judged with a town's noise.
+#[test]
+fn a_drive_that_learns_nothing_keeps_the_records_noise() {
+    let cfg = TrackConfig::for_profile(&LOGGER_1HZ);
+    let mut c = TrackCheck::new(cfg);
+    for s in &drive(&Car::default(), 1800.0, 1) {
+        c.step(s);
+    }
+    let first = c.record().expect("calibrated after 30 minutes");
+    let mut rec = first;
+    for seed in 2..5 {
+        let mut c = TrackCheck::with_record(cfg, &rec);
+        // 15 s: the car stands for its first 20.
+        for s in &drive(&Car { first_stop_s: 0.0, ..Car::default() }, 15.0, seed) {
+            c.step(s);
+        }
+        rec = c.record().expect("the stored record is kept");
+        assert_eq!((rec.noise_s0_m, rec.noise_k, rec.velocity_sigma_mps), (first.noise_s0_m, first.noise_k, first.velocity_sigma_mps), "after drive {seed}");
+    }
+}

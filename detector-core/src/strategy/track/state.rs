@@ -32,8 +32,8 @@ pub(super) const NOISE_RISE_PER_DRIVE: f32 = 1.25;
 /// A record's noise is at most this factor over the car's anchor (its first record's, of the
 /// same receiver class), however many drives raised it by `NOISE_RISE_PER_DRIVE` each. The
 /// honest records of sddi_commuter's and css_canedge's drives in turn (ten and six drives) stay
-/// within 1.26 of their first and within 1.7 of their quietest (sddi_commuter's `s0` 2.5 to
-/// 4.2 m, css_canedge's velocity noise 0.13 to 0.17 m/s); the live noise follows the
+/// within 1.35 of their first and within 1.74 of their quietest (sddi_commuter's `s0` 2.65 to
+/// 4.61 m, css_canedge's velocity noise 0.13 to 0.17 m/s); the live noise follows the
 /// environment within the drive whatever the prior. On css_canedge session 1 a record at this
 /// bound (twice session 0's noise) finds a drift of 1 m/s along a minute in and one across 300 s
 /// in when the honest record does (12 and 23 s); one of the inflated record above (about what nine
@@ -229,7 +229,7 @@ impl TrackCheck {
         }
         self.bound_bias_by_standstill();
         // The same receiver class: its noise carries over as the prior.
-        if libm::fabsf(r.nominal_dt_s - self.cfg_dt()) < 0.5 * r.nominal_dt_s {
+        if self.same_class(&r) {
             self.vel.set_sigma(r.velocity_sigma_mps);
             self.quiet_sigma = self.vel.sigma();
             let floors = (self.cfg.s0_floor_m, self.cfg.k_floor);
@@ -261,6 +261,11 @@ impl TrackCheck {
         }
     }
 
+    /// A record of the receiver class this configuration is for (its noise is this one's).
+    pub(super) fn same_class(&self, r: &Record) -> bool {
+        libm::fabsf(r.nominal_dt_s - self.cfg_dt()) < 0.5 * r.nominal_dt_s
+    }
+
     /// The receiver class the configuration is for (its prior's epoch).
     pub(super) fn cfg_dt(&self) -> f32 {
         if self.cfg.s0_prior_m < 4.0 { 0.1 } else { 1.0 }
@@ -284,7 +289,7 @@ impl TrackCheck {
         let gyro = self.source == Some(HeadingSource::Gyro) || self.bias_weight > 0.0;
         // The noise kept for the next drive rises by at most NOISE_RISE_PER_DRIVE over the
         // stored record's (the same receiver class's): see there.
-        let same = stored.filter(|r| libm::fabsf(r.nominal_dt_s - self.cfg_dt()) < 0.5 * r.nominal_dt_s);
+        let same = stored.filter(|r| self.same_class(r));
         let mut noise = [libm::sqrtf(s2a), libm::sqrtf(s2b), libm::sqrtf(k2a), libm::sqrtf(k2b), self.quiet_sigma[0], self.quiet_sigma[1]];
         // The first record of this receiver class is its own anchor.
         let mut anchors = noise;
@@ -318,7 +323,10 @@ impl TrackCheck {
     }
 
     /// The noise of window `wi`, `(s0^2, k^2)`: the car's own fit, blended with the receiver
-    /// profile's prior while the fit has little data.
+    /// profile's prior while the fit has little data; from a stored record of this receiver
+    /// class, whose noise seeded the fits at power-up, the fit alone (the profile's prior is in
+    /// the record already: blended in again, every drive that learnt nothing raised the
+    /// stored noise).
     pub(super) fn noise_params(&self, wi: usize) -> (f32, f32) {
         self.fit_params(self.noise.get(wi))
     }
@@ -333,6 +341,9 @@ impl TrackCheck {
         let c = self.cfg;
         let prior = (2.0 * c.s0_prior_m * c.s0_prior_m, c.k_prior * c.k_prior);
         let Some(nf) = nf else { return prior };
+        if self.stored.is_some_and(|r| self.same_class(&r)) {
+            return nf.blended(prior, 0.0);
+        }
         let w_p = c.prior_weight_s * libm::expf(-self.learnt_s / c.prior_weight_s.max(1.0));
         nf.blended(prior, w_p)
     }
