@@ -8,6 +8,7 @@ use detector_core::strategy::location_shift::{KinematicPredictor, Predictor, Shi
 use detector_core::strategy::location_shift::lstm::{LstmModel, LstmPredictor, DEFAULT_MODEL};
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
 use detector_core::strategy::StrategyId;
+use gnss_guard_board::store::SavePolicy;
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -89,18 +90,43 @@ pub fn config(p: &ReceiverProfile, kind: PredictorKind) -> Config {
     c
 }
 
+/// The detector over `samples`, and the record to keep after them: the drive's own at its end
+/// (the end of a log is the car parked, where the board saves too), unless an alarm is latched
+/// there; then the last one the board's [`SavePolicy`] saved before it (the car standing, no
+/// alarm latched, at most every five minutes), or none: what a drive under attack learnt is
+/// not kept. None when the drive contradicts the stored record: it is kept as it was.
 fn run_detector<P: ShiftPredictor>(samples: &[Sample], cfg: Config, p: P, set: TemplateSet, record: Option<&Record>) -> (Vec<Verdict>, Option<Record>) {
     let mut d = Detector::new(cfg, p).with_turns(set);
     if let Some(r) = record {
         d = d.with_calibration(r);
     }
-    let v = samples.iter().map(|s| d.step(s)).collect();
-    (v, d.calibration_record())
+    let mut policy = SavePolicy::default();
+    let mut saved = None;
+    let v: Vec<Verdict> = samples
+        .iter()
+        .map(|s| {
+            let v = d.step(s);
+            // As the board's pipeline (`gnss_guard_board::pipeline`).
+            saved = policy.keep(v.t, &v, &d).or(saved);
+            v
+        })
+        .collect();
+    // The end of the log: the car parked. A drive that contradicts the stored record leaves it
+    // as it was (the board writes it back at the standstill); else the drive's own record,
+    // unless an alarm is latched.
+    let kept = if d.track().calibration().contradiction().is_some() {
+        None
+    } else if v.last().is_none_or(|x| !x.alarm) {
+        d.calibration_record().or(saved)
+    } else {
+        saved
+    };
+    (v, kept)
 }
 
 /// [`run_with_templates`] on a car whose calibration was stored (`record`), returning the
-/// record to store after this drive too (`None`: nothing to store, see
-/// [`Detector::calibration_record`]).
+/// record to store after this drive too, as the board saves it (`None`: nothing saved, see
+/// [`run_detector`] and [`Detector::calibration_record`]).
 pub fn run_calibrated(samples: &[Sample], cfg: Config, kind: PredictorKind, set: TemplateSet, record: Option<&Record>) -> (Vec<Verdict>, Option<Record>) {
     match kind {
         PredictorKind::LstmF32 => run_detector(samples, cfg, WithFallback::new(LstmPredictor::reference(default_lstm_f32())), set, record),
@@ -465,12 +491,17 @@ pub fn record_text(r: &Record) -> Vec<String> {
 pub fn write_calibration(path: &std::path::Path, stored: Option<&Record>, learnt: Option<&Record>, verdicts: &[Verdict]) -> anyhow::Result<Value> {
     use detector_core::fusion::Reason;
     let contradicted = verdicts.iter().any(|v| v.reasons.contains(Reason::CalibrationContradicted));
+    // An alarm latched at the end: the record is the last the board saved before it (see
+    // `run_detector`), or none.
+    let alarm_t = verdicts.last().filter(|v| v.alarm).and_then(|_| verdicts.iter().find(|v| v.alarm)).map(|v| v.t);
     let said = match learnt {
         Some(r) => {
             crate::output::write_atomic(path, |w| w.write_all(&r.encode())).map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
-            format!("{} written: scale {:.4}, delays {:.3} / {:.3} s, {} drives", path.display(), r.scale, r.delay_s[0], r.delay_s[1], r.drives)
+            let when = alarm_t.map_or(String::new(), |t| format!(" (as saved at a standstill before the alarm at {t:.1} s: what the drive learnt after it is not kept)"));
+            format!("{} written: scale {:.4}, delays {:.3} / {:.3} s, {} drives{when}", path.display(), r.scale, r.delay_s[0], r.delay_s[1], r.drives)
         }
         None if contradicted => format!("{} kept: this drive contradicts it (reason calibration_contradicted: another car, other tyres, or GNSS spoofed since before the drive); delete it to let the car be learnt afresh", path.display()),
+        None if alarm_t.is_some() => format!("{} {}: an alarm latched at {:.1} s before the car stood still calibrated (what a drive under attack learnt is not kept)", path.display(), if stored.is_some() { "kept" } else { "not written" }, alarm_t.unwrap_or(f64::NAN)),
         None => format!("{} not written: the car is not calibrated yet (a first drive learns it over {} s of driving)", path.display(), detector_core::strategy::track::calibration::CalLimits::default().warmup_s),
     };
     eprintln!("calibration: {said}");

@@ -321,6 +321,30 @@ fn a_stored_record_finds_this_drives_own_delay_within_its_bound() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// What a drive under attack learnt is not kept: css_canedge session 1 with a jump of 300 m at
+/// 1500 s, judged from session 0's record, writes the record as the board saved it at a
+/// standstill before the alarm (5 s more learnt than session 0's), not the drive's own at its
+/// end (2,200 s more, the code before), and says so.
+#[test]
+fn a_drive_that_ends_in_an_alarm_keeps_what_was_saved_before_it() {
+    let Some(d) = data_dir("a_drive_that_ends_in_an_alarm_keeps_what_was_saved_before_it") else { return };
+    let (dir, file, css) = session0_record(&d, "attacked");
+    let stored = detector_core::wire::calibration::Record::decode(&std::fs::read(&file).unwrap()).unwrap();
+    let jumped = dir.join("jumped.csv");
+    let out = host_sim(&["attack", "--kind", "jump", "--offset-m", "300", "--bearing-deg", "90", "--onset", "1500", "-o", jumped.to_str().unwrap(), css.join("denmark_2021-07-26_session1.csv").to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = host_sim(&["detect", "--json", "--calibration", file.to_str().unwrap(), jumped.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let last: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let said = last["calibration"]["said"].as_str().unwrap_or_default();
+    assert!(said.contains("before the alarm at 1500.0 s"), "{said}");
+    let kept = detector_core::wire::calibration::Record::decode(&std::fs::read(&file).unwrap()).unwrap();
+    assert_eq!(kept.drives, stored.drives + 1);
+    assert!(kept.learnt_s - stored.learnt_s < 1500.0, "learnt {} s after {} s", kept.learnt_s, stored.learnt_s);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A spoofer who only adds noise (css_canedge session 1 under GNSS noise of 5.7 m correlated
 /// over 16 s, the nuisance suite's `gnss-noise` at seed 1), drive after drive, raises no alarm,
 /// and the noise the record keeps for the next drive rises by a quarter per drive at most and

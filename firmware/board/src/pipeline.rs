@@ -281,12 +281,10 @@ fn judge<W: Stopwatch + ?Sized>(
     *epochs = epochs.wrapping_add(1);
     health.on_verdict(&v, now);
     alarm.on_verdict(&v);
-    // Asked of the detector only when the policy says so (the car has stood for seconds).
-    if keep.policy.due(now, &v) {
-        keep.policy.saved(now);
-        if let Some(r) = det.calibration_record() {
-            *keep.record = Some(r);
-        }
+    // Asked of the detector only when the policy says so (the car has stood for seconds); the
+    // stored record written back if this drive contradicts it after a save of its own.
+    if let Some(r) = keep.policy.keep(now, &v, det) {
+        *keep.record = Some(r);
     }
     out(&v);
     w.lap(Stage::Output);

@@ -13,9 +13,12 @@
 //! STM32F405 cannot fetch code from flash while it writes or erases it, so the detector stops
 //! for up to 0.8 s), no alarm latched (what a drive under attack learnt is not kept), at most
 //! every [`SAVE_EVERY_S`], and only what the detector says is worth keeping
-//! (`Detector::calibration_record`: calibrated, and not contradicting the stored record).
+//! (`Detector::calibration_record`: calibrated, and not contradicting the stored record); a
+//! drive that contradicts the stored record after a save of its own writes the stored one back
+//! ([`SavePolicy::keep`]).
 
-use detector_core::fusion::Verdict;
+use detector_core::fusion::{Detector, Verdict};
+use detector_core::strategy::location_shift::ShiftPredictor;
 use detector_core::strategy::motion::MotionState;
 use detector_core::wire::calibration::{Record, RecordError, RECORD_LEN};
 use embedded_storage_async::nor_flash::NorFlash;
@@ -134,6 +137,10 @@ pub struct SavePolicy {
     /// When the wheels began to stand (reset when they move or nothing says).
     standing_since: Option<f64>,
     last_save_t: Option<f64>,
+    /// The drive contradicted the stored record after a save of its own: the stored record is
+    /// to be written back at the next save (`restoring`), once (`restored`).
+    restoring: bool,
+    restored: bool,
 }
 
 impl SavePolicy {
@@ -155,6 +162,45 @@ impl SavePolicy {
     /// A save was made (or attempted) at `now`.
     pub fn saved(&mut self, now: f64) {
         self.last_save_t = Some(now);
+    }
+
+    /// Every verdict: when a save is due, the record `make` gives (the detector's, if it has one
+    /// to keep), and the save's turn taken only then: a standstill with nothing to keep (a
+    /// first drive not yet calibrated) held css_canedge session 0's calibration, learnt by its
+    /// stop at 301 s, back past its stop at 43 s for five minutes, to the end of its log.
+    pub fn offer<R>(&mut self, now: f64, v: &Verdict, make: impl FnOnce() -> Option<R>) -> Option<R> {
+        let r = if self.due(now, v) { make() } else { None };
+        if r.is_some() {
+            self.saved(now);
+            self.restored |= self.restoring;
+            self.restoring = false;
+        }
+        r
+    }
+
+    /// The drive contradicts the stored record (every verdict from then on): if this drive has
+    /// saved a record of its own before (what it learnt while the contradiction's test was still
+    /// gathering its evidence), the next save writes the stored record back ([`Self::restoring`]):
+    /// a drive that contradicts the record leaves it as it was.
+    pub fn contradicted(&mut self) {
+        self.restoring = self.last_save_t.is_some() && !self.restored;
+    }
+
+    /// The next save is the stored record's, written back (see [`Self::contradicted`]).
+    pub fn restoring(&self) -> bool {
+        self.restoring
+    }
+
+    /// Every verdict of `det` at `now`: the record to save now, if any (the detector's own, or
+    /// the stored one written back). The board's pipeline and `host-sim detect --calibration`
+    /// both keep the car's calibration through this.
+    pub fn keep<P: ShiftPredictor>(&mut self, now: f64, v: &Verdict, det: &Detector<'_, P>) -> Option<Record> {
+        let cal = det.track().calibration();
+        if cal.contradiction().is_some() {
+            self.contradicted();
+        }
+        let restore = self.restoring.then(|| cal.stored().copied()).flatten();
+        self.offer(now, v, || restore.or_else(|| det.calibration_record()))
     }
 }
 
@@ -477,5 +523,23 @@ mod tests {
         assert!(!p.due(400.0, &v(MotionState::Standing, true)), "alarm latched");
         assert!(p.due(401.0, &v(MotionState::Standing, false)));
         assert!(!p.due(f64::NAN, &v(MotionState::Standing, false)));
+        // Nothing to keep at a due moment: the next standstill may still save.
+        let mut p = SavePolicy::default();
+        p.due(0.0, &v(MotionState::Standing, false));
+        assert_eq!(p.offer(3.0, &v(MotionState::Standing, false), || None::<u8>), None);
+        p.due(50.0, &v(MotionState::Moving, false));
+        p.due(60.0, &v(MotionState::Standing, false));
+        assert_eq!(p.offer(63.0, &v(MotionState::Standing, false), || Some(1u8)), Some(1));
+        assert_eq!(p.offer(64.0, &v(MotionState::Standing, false), || Some(2u8)), None, "too soon");
+        // Contradicted after that save: the next save is the stored record's, once.
+        p.contradicted();
+        assert!(p.restoring());
+        assert_eq!(p.offer(400.0, &v(MotionState::Standing, false), || Some(0u8)), Some(0));
+        p.contradicted();
+        assert!(!p.restoring(), "written back once");
+        // Contradicted before any save of the drive's own: nothing to write back.
+        let mut p = SavePolicy::default();
+        p.contradicted();
+        assert!(!p.restoring());
     }
 }
