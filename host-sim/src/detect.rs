@@ -424,7 +424,7 @@ pub fn read_calibration(path: &std::path::Path) -> Option<Record> {
     };
     match Record::decode(&bytes) {
         Ok(r) => {
-            eprintln!("calibration: {}: scale {:.4}, delays {:.3} / {:.3} s, learnt over {} drives ({:.0} s)", path.display(), r.scale, r.delay_s[0], r.delay_s[1], r.drives, r.learnt_s);
+            eprintln!("calibration: {}: scale {:.4}, delays {:.3} / {:.3} s, learnt over {} ({:.0} s)", path.display(), r.scale, r.delay_s[0], r.delay_s[1], drives(r.drives), r.learnt_s);
             Some(r)
         }
         Err(e) => {
@@ -435,6 +435,11 @@ pub fn read_calibration(path: &std::path::Path) -> Option<Record> {
             None
         }
     }
+}
+
+/// "1 drive", "2 drives".
+fn drives(n: u16) -> String {
+    format!("{n} drive{}", if n == 1 { "" } else { "s" })
 }
 
 /// A calibration record as JSON: every field, the anchors beside the values (NaN as null).
@@ -457,7 +462,7 @@ pub fn record_text(r: &Record) -> Vec<String> {
     let opt = |v: f32, unit: &str| if v.is_finite() { format!("{v:.3} {unit}") } else { "none".to_string() };
     let pair = |a: [f32; 2], d: usize| format!("{:.d$} / {:.d$}", a[0], a[1]);
     vec![
-        format!("learnt over {} drives, {:.0} s of driving, with a receiver of {} s epochs", r.drives, r.learnt_s, r.nominal_dt_s),
+        format!("learnt over {}, {:.0} s of driving, with a receiver of {} s epochs", drives(r.drives), r.learnt_s, r.nominal_dt_s),
         format!("wheel-speed scale (GNSS over wheels) {:.4}, the car's anchor {:.4}", r.scale, r.anchor_scale),
         format!(
             "GNSS late behind the vehicle signals (negative: the vehicle signals late): position {}, velocity {}; anchors {}, {}",
@@ -498,7 +503,7 @@ pub fn write_calibration(path: &std::path::Path, stored: Option<&Record>, learnt
         Some(r) => {
             crate::output::write_atomic(path, |w| w.write_all(&r.encode())).map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
             let when = alarm_t.map_or(String::new(), |t| format!(" (as saved at a standstill before the alarm at {t:.1} s: what the drive learnt after it is not kept)"));
-            format!("{} written: scale {:.4}, delays {:.3} / {:.3} s, {} drives{when}", path.display(), r.scale, r.delay_s[0], r.delay_s[1], r.drives)
+            format!("{} written: scale {:.4}, delays {:.3} / {:.3} s, {}{when}", path.display(), r.scale, r.delay_s[0], r.delay_s[1], drives(r.drives))
         }
         None if contradicted => format!("{} kept: this drive contradicts it (reason calibration_contradicted: another car, other tyres, or GNSS spoofed since before the drive); delete it to let the car be learnt afresh", path.display()),
         None if alarm_t.is_some() => format!("{} {}: an alarm latched at {:.1} s before the car stood still calibrated (what a drive under attack learnt is not kept)", path.display(), if stored.is_some() { "kept" } else { "not written" }, alarm_t.unwrap_or(f64::NAN)),
