@@ -111,17 +111,22 @@ fn run_detector<P: ShiftPredictor>(samples: &[Sample], cfg: Config, p: P, set: T
             v
         })
         .collect();
-    // The end of the log: the car parked. A drive that contradicts the stored record leaves it
-    // as it was (the board writes it back at the standstill); else the drive's own record,
-    // unless an alarm is latched.
-    let kept = if d.track().calibration().contradiction().is_some() {
+    let kept = record_at_the_end(&d, v.last(), saved);
+    (v, kept)
+}
+
+/// The record to keep when the input ends (a log's end, or `live` stopped: the car parked),
+/// `saved` the last one [`SavePolicy::keep`] gave during the drive: none when the drive
+/// contradicts the stored record (it stays as it was: the board writes it back at the
+/// standstill); else the drive's own, unless an alarm is latched at `last`: then `saved`.
+pub fn record_at_the_end<P: ShiftPredictor>(d: &Detector<'_, P>, last: Option<&Verdict>, saved: Option<Record>) -> Option<Record> {
+    if d.track().calibration().contradiction().is_some() {
         None
-    } else if v.last().is_none_or(|x| !x.alarm) {
+    } else if last.is_none_or(|x| !x.alarm) {
         d.calibration_record().or(saved)
     } else {
         saved
-    };
-    (v, kept)
+    }
 }
 
 /// [`run_with_templates`] on a car whose calibration was stored (`record`), returning the

@@ -28,8 +28,10 @@ use detector_core::profile::ReceiverProfile;
 use detector_core::sample::{Fix, Sample};
 use detector_core::strategy::location_shift::Predictor;
 use detector_core::sync::{SyncConfig, Synchronizer};
+use detector_core::wire::calibration::Record;
 use gnss_data::input::logs::{parse_candump_line, CanFrame};
 use gnss_guard_board::gnss::NmeaFixer;
+use gnss_guard_board::store::SavePolicy;
 use gnss_guard_board::ubx::{Chunk, Framer, SpoofState, UbxFixer};
 use gnss_guard_profile::load::Profile;
 use serde_json::{json, Value};
@@ -96,6 +98,23 @@ pub struct Options {
     pub receiver_time: bool,
     /// The fixes come from the CAN frames (the map's GNSS fields), not a GNSS input.
     pub gnss_from_can: bool,
+    /// The car's calibration record: read before the detector starts, saved as the board saves
+    /// it (at a standstill without an alarm, at most every 5 minutes) and at the end of input.
+    pub calibration: Option<Calibration>,
+}
+
+/// The car's calibration record file of a live run and what it held at the start.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    pub path: PathBuf,
+    pub stored: Option<Record>,
+}
+
+/// A live run's calibration: the file, the board's save policy, what was saved.
+struct Keeper {
+    file: Calibration,
+    policy: SavePolicy,
+    saved: Option<Record>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -310,6 +329,7 @@ struct Judge<'w, W: Write> {
     profile_epochs: usize,
     verdicts: Vec<Verdict>,
     status: StatusStream,
+    keeper: Option<Keeper>,
     out: &'w mut W,
 }
 
@@ -330,7 +350,10 @@ impl<W: Write> Judge<'_, W> {
     fn start(&mut self) -> std::io::Result<()> {
         let p = self.profile.unwrap_or_else(|| detect::profile_of(&self.waiting));
         self.profile = Some(p);
-        let d = Detector::new(detect::config(p, self.kind), detect::predictor(self.kind)).with_turns(detect::default_templates());
+        let mut d = Detector::new(detect::config(p, self.kind), detect::predictor(self.kind)).with_turns(detect::default_templates());
+        if let Some(r) = self.keeper.as_ref().and_then(|k| k.file.stored.as_ref()) {
+            d = d.with_calibration(r);
+        }
         self.det = Some(d);
         for s in std::mem::take(&mut self.waiting) {
             self.judge(&s)?;
@@ -347,9 +370,34 @@ impl<W: Write> Judge<'_, W> {
             writeln!(self.out, "{}", json!({ "status": s }))?;
         }
         writeln!(self.out, "{}", detect::verdict_json(&v))?;
+        // As the board saves it (`SavePolicy::keep`), the file whole or not at all.
+        if let Some(k) = self.keeper.as_mut() {
+            if let Some(r) = k.policy.keep(v.t, &v, det) {
+                let path = &k.file.path;
+                match crate::output::write_atomic(path, |w| w.write_all(&r.encode())) {
+                    Ok(()) => writeln!(self.out, "{}", json!({ "calibration": { "saved": path.display().to_string(), "t": v.t } }))?,
+                    Err(e) => eprintln!("calibration: {}: cannot write: {e}", path.display()),
+                }
+                k.saved = Some(r);
+            }
+        }
         self.out.flush()?;
         self.verdicts.push(v);
         Ok(())
+    }
+
+    /// The end of input (or Ctrl-C): the car's record kept as `detect --calibration` keeps it
+    /// ([`detect::record_at_the_end`]); a drive that contradicts the stored record after a save
+    /// of its own writes the stored one back. What happened, as `detect` says it.
+    fn keep_calibration(&self) -> anyhow::Result<Option<Value>> {
+        let (Some(k), Some(det)) = (self.keeper.as_ref(), self.det.as_ref()) else {
+            return Ok(self.keeper.as_ref().map(|k| json!({ "loaded": k.file.stored.is_some(), "written": false, "said": "no epoch judged" })));
+        };
+        let learnt = detect::record_at_the_end(det, self.verdicts.last(), k.saved);
+        if let (true, Some(r), Some(_)) = (det.track().calibration().contradiction().is_some(), k.file.stored.as_ref(), k.saved) {
+            crate::output::write_atomic(&k.file.path, |w| w.write_all(&r.encode())).map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", k.file.path.display()))?;
+        }
+        detect::write_calibration(&k.file.path, k.file.stored.as_ref(), learnt.as_ref(), &self.verdicts).map(Some)
     }
 
     fn finish(&mut self) -> std::io::Result<()> {
@@ -459,6 +507,7 @@ fn merge_and_judge(rx: Receiver<Msg>, profile: &Profile, opts: &Options, out: &m
         profile_epochs: opts.profile_epochs.max(1),
         verdicts: Vec::new(),
         status: StatusStream::default(),
+        keeper: opts.calibration.clone().map(|file| Keeper { file, policy: SavePolicy::default(), saved: None }),
         out,
     };
     let mut c = Counts::default();
@@ -515,7 +564,12 @@ fn merge_and_judge(rx: Receiver<Msg>, profile: &Profile, opts: &Options, out: &m
         "gnss_errors": c.bad[Stream::Gnss as usize], "receiver_spoofing": c.spoof.name(),
         "receiver_spoofing_changes": c.spoof_changes, "stopped_by_signal": stopped, "errors": errors,
     });
-    writeln!(j.out, "{}", json!({ "summary": summary, "inputs": inputs, "digest": detect::digest_hex(&j.verdicts) }))?;
+    let calibration = j.keep_calibration()?;
+    let mut last = json!({ "summary": summary, "inputs": inputs, "digest": detect::digest_hex(&j.verdicts) });
+    if let Some(c) = calibration {
+        last["calibration"] = c;
+    }
+    writeln!(j.out, "{last}")?;
     j.out.flush()?;
     if let Some(e) = errors.first() {
         anyhow::bail!("{e}");

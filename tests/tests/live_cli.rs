@@ -162,3 +162,43 @@ fn live_reads_a_vcan_interface_where_the_kernel_offers_one() {
     let s: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
     assert_eq!(s["inputs"]["can_frames"].as_u64(), Some(frames.len() as u64), "{s}");
 }
+
+/// `live --calibration` keeps the car's record as `detect --calibration` does (the board's
+/// save rule, then the end of input as the car parked): from the same stored record (of this
+/// receiver class; plausible values for the RAV4, not learnt), the same digest and the same
+/// record written back, one drive more.
+#[test]
+fn live_keeps_the_calibration_record_as_detect_does() {
+    use detector_core::wire::calibration::Record;
+    let Some(x) = ExportedLogs::new("live_keeps_the_calibration_record_as_detect_does") else { return };
+    let stored = Record {
+        scale: 1.0,
+        delay_s: [0.0, 0.0],
+        learnt_s: 3600.0,
+        drives: 4,
+        gyro_bias_degps: 0.0,
+        gyro_bias_weight_s: 10.0,
+        gyro_scale_error: 0.0,
+        gyro_scale_sd: 0.01,
+        noise_s0_m: [1.0; 2],
+        noise_k: [0.01; 2],
+        velocity_sigma_mps: [0.2; 2],
+        nominal_dt_s: 0.1,
+        anchor_scale: 1.0,
+        anchor_delay_s: [0.0, 0.0],
+        anchor_gyro_scale_error: 0.0,
+        anchor_noise_s0_m: [1.0; 2],
+        anchor_noise_k: [0.01; 2],
+        anchor_velocity_sigma_mps: [0.2; 2],
+    };
+    let (by_detect, by_live) = (x.path("detect.ggcr"), x.path("live.ggcr"));
+    std::fs::write(&by_detect, stored.encode()).unwrap();
+    std::fs::write(&by_live, stored.encode()).unwrap();
+    let (_, last) = system_tests::detect_json(&["--can", &x.path("can.log"), "--gnss", &x.path("gnss.nmea"), "--dbc", x.dbc.to_str().unwrap(), "--map", x.map.to_str().unwrap(), "--calibration", &by_detect]);
+    let s = run_through_pty(&x, std::fs::read(x.path("gnss.nmea")).unwrap(), &["--strict-merge", "--calibration", &by_live]);
+    assert_eq!(s["digest"], last["digest"], "{s}");
+    assert_eq!((s["calibration"]["loaded"].as_bool(), s["calibration"]["written"].as_bool()), (Some(true), Some(true)), "{s}");
+    let kept = std::fs::read(&by_live).unwrap();
+    assert_eq!(kept, std::fs::read(&by_detect).unwrap(), "live and detect keep different records");
+    assert_eq!(Record::decode(&kept).unwrap().drives, 5);
+}

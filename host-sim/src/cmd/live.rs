@@ -47,6 +47,11 @@ pub struct Args {
     /// Largest gap, seconds, between an epoch and the observations it is interpolated from.
     #[arg(long, default_value_t = SyncConfig::default().max_gap_s)]
     max_gap: f64,
+    /// The car's calibration record, as `detect --calibration`: read before the detector starts
+    /// (none yet: this drive learns the car), saved as the board saves it (at a standstill of
+    /// 2 s without an alarm, at most every 5 minutes) and at the end of input or Ctrl-C.
+    #[arg(long)]
+    calibration: Option<PathBuf>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -72,6 +77,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         profile_epochs: a.profile_epochs,
         receiver_time: a.gnss_time == "receiver",
         gnss_from_can: a.gnss.is_none(),
+        calibration: a.calibration.as_ref().map(|path| host_sim::live::Calibration { stored: detect::read_calibration(path), path: path.clone() }),
     };
     let gnss = match &a.gnss {
         Some(g) => host_sim::live::GnssSource::parse(g, a.baud),
