@@ -478,7 +478,7 @@ pub fn record_text(r: &Record) -> Vec<String> {
         ),
         if r.gyro_bias_degps.is_finite() {
             format!(
-                "gyro: bias {:.3} deg/s ({:.0} s of standstill behind it), scale error {:.4} (sd {:.4}), anchor {:.4}",
+                "gyro: bias {:.3} deg/s (weighed as {:.0} s of standstill: the last drive's own, and at most 10 s of the drives before), scale error {:.4} (sd {:.4}), anchor {:.4}",
                 r.gyro_bias_degps, r.gyro_bias_weight_s, r.gyro_scale_error, r.gyro_scale_sd, r.anchor_gyro_scale_error
             )
         } else {

@@ -51,10 +51,10 @@ pub struct Record {
     pub learnt_s: f32,
     /// Drives that contributed.
     pub drives: u16,
-    /// The gyro's bias, deg/s (NaN: no gyro, or never measured), and the seconds of standstill
-    /// behind it.
+    /// The gyro's bias, deg/s (NaN: no gyro, or never measured).
     pub gyro_bias_degps: f32,
-    /// Seconds of standstill behind the gyro bias.
+    /// The gyro bias's weight, seconds of standstill: the last drive's own, and at most 10 s of
+    /// the drives before (a stored bias counts as 10 s at most when a drive starts from it).
     pub gyro_bias_weight_s: f32,
     /// The gyro's scale error (true turn = (1 + e) measured turn) and its uncertainty.
     pub gyro_scale_error: f32,
