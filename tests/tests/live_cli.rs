@@ -164,33 +164,14 @@ fn live_reads_a_vcan_interface_where_the_kernel_offers_one() {
 }
 
 /// `live --calibration` keeps the car's record as `detect --calibration` does (the board's
-/// save rule, then the end of input as the car parked): from the same stored record (of this
-/// receiver class; plausible values for the RAV4, not learnt), the same digest and the same
-/// record written back, one drive more.
+/// save rule, then the end of input as the car parked): from the same stored record (the QEMU
+/// run's, plausible values for the RAV4, not learnt), the same digest and the same record
+/// written back, one drive more.
 #[test]
 fn live_keeps_the_calibration_record_as_detect_does() {
     use detector_core::wire::calibration::Record;
     let Some(x) = ExportedLogs::new("live_keeps_the_calibration_record_as_detect_does") else { return };
-    let stored = Record {
-        scale: 1.0,
-        delay_s: [0.0, 0.0],
-        learnt_s: 3600.0,
-        drives: 4,
-        gyro_bias_degps: 0.0,
-        gyro_bias_weight_s: 10.0,
-        gyro_scale_error: 0.0,
-        gyro_scale_sd: 0.01,
-        noise_s0_m: [1.0; 2],
-        noise_k: [0.01; 2],
-        velocity_sigma_mps: [0.2; 2],
-        nominal_dt_s: 0.1,
-        anchor_scale: 1.0,
-        anchor_delay_s: [0.0, 0.0],
-        anchor_gyro_scale_error: 0.0,
-        anchor_noise_s0_m: [1.0; 2],
-        anchor_noise_k: [0.01; 2],
-        anchor_velocity_sigma_mps: [0.2; 2],
-    };
+    let stored = gnss_guard_board::replay::stored_record();
     let (by_detect, by_live) = (x.path("detect.ggcr"), x.path("live.ggcr"));
     std::fs::write(&by_detect, stored.encode()).unwrap();
     std::fs::write(&by_live, stored.encode()).unwrap();

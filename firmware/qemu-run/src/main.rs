@@ -74,33 +74,6 @@ fn replay_in<W: detector_core::stage::Stopwatch + ?Sized>(
     replay::run_in(pipe, input, i, clock, cost, w)
 }
 
-/// A stored calibration for the cost of a car's next drive: calibrated from the first epoch,
-/// its delays' uncertainty from their fits (a first drive's first two minutes, all this
-/// segment has, hold it at 0.5 s and skip that path). Plausible values for this car, not
-/// learnt: only the cost is measured with it.
-fn stored_record() -> Record {
-    Record {
-        scale: 1.0,
-        delay_s: [0.0, 0.0],
-        learnt_s: 3600.0,
-        drives: 4,
-        gyro_bias_degps: 0.0,
-        gyro_bias_weight_s: 10.0,
-        gyro_scale_error: 0.0,
-        gyro_scale_sd: 0.01,
-        noise_s0_m: [1.0; 2],
-        noise_k: [0.01; 2],
-        velocity_sigma_mps: [0.2; 2],
-        nominal_dt_s: 0.1,
-        anchor_scale: 1.0,
-        anchor_delay_s: [0.0, 0.0],
-        anchor_gyro_scale_error: 0.0,
-        anchor_noise_s0_m: [1.0; 2],
-        anchor_noise_k: [0.01; 2],
-        anchor_velocity_sigma_mps: [0.2; 2],
-    }
-}
-
 /// SysTick ticks spent on every epoch of every drive scenario (not the outage, whose first
 /// epoch after the gap carries the gap's CAN decoding), replayed with this configuration, into
 /// `costs` (one buffer reused: the stack holds one 16 KiB vector, not one per run).
@@ -396,7 +369,7 @@ fn main() -> ! {
     report("instructions per epoch (kinematic predictor)", &mut costs);
     // A car's next drive: the same scenarios started from a stored calibration, whose
     // calibrated paths a first drive's first minute does not reach.
-    let record = stored_record();
+    let record = replay::stored_record();
     if record.plausible().is_err() {
         // The store would refuse it and the run would measure a first drive again.
         fail("the stored calibration for the cost run is not plausible");
