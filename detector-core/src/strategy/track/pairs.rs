@@ -53,34 +53,37 @@ pub(super) struct Pair {
 impl TrackCheck {
     /// The velocity pair of history entry `e`, the DR's velocity taken `tau` earlier: the
     /// receiver's velocity against the DR's over a second centred on it, or both position
-    /// differences over the second before it. Where that second ends after the newest epoch
-    /// (`now`; by `early`, at most [`PAIR_EARLY_S`], see `next_pair`), the DR's newest second
-    /// is carried forward by `early` at its change since the second before (a steady turn or
-    /// braking is then exact: the newest second alone was off by the acceleration times
-    /// `early`, the same way at every pair of a bend, which a window adds up). `None` across a
-    /// bridged gap.
+    /// differences over the [`velocity::POSITION_SPAN_S`] before it. Where that span ends after
+    /// the newest epoch (`now`; by `early`, at most [`PAIR_EARLY_S`], see `next_pair`), the DR's
+    /// span is carried forward by `early` at its newest second's change since the second
+    /// before, times the span (a steady turn or braking is then exact: the newest span alone
+    /// was off by the acceleration times `early`, the same way at every pair of a bend, which a
+    /// window adds up). `None` across a bridged gap.
     pub(super) fn pair(&self, e: Entry, tau: f32, now: f32) -> Option<Pair> {
         let lead = if e.has_velocity() { 0.5 * PAIR_S } else { 0.0 };
         let end = e.t - tau + lead;
         let early = if end > now { end - now } else { 0.0 };
+        let span = if e.has_velocity() { PAIR_S } else { velocity::POSITION_SPAN_S };
         let g = if e.has_velocity() {
             e.v
         } else {
-            let s = self.hist.at(e.t - PAIR_S)?;
-            scale2(sub(e.g, s.g), 1.0 / PAIR_S)
+            let s = self.hist.at(e.t - span)?;
+            scale2(sub(e.g, s.g), 1.0 / span)
         };
         let end = end - early;
-        let (d0, d1) = (self.dr_at(end - PAIR_S, now)?, self.dr_at(end, now)?);
+        let (d0, d1) = (self.dr_at(end - span, now)?, self.dr_at(end, now)?);
         if d1.u != d0.u {
             return None;
         }
         let mut d = sub(d1.d, d0.d);
         if early > 0.0 {
+            let mid = if span > PAIR_S { self.dr_at(end - PAIR_S, now).filter(|b| b.u == d0.u)? } else { d0 };
             let before = self.dr_at(end - 2.0 * PAIR_S, now).filter(|b| b.u == d0.u)?;
-            let change = sub(d, sub(d0.d, before.d));
-            d = (d.0 + change.0 * early / PAIR_S, d.1 + change.1 * early / PAIR_S);
+            let change = sub(sub(d1.d, mid.d), sub(mid.d, before.d));
+            let f = early * span / (PAIR_S * PAIR_S);
+            d = (d.0 + change.0 * f, d.1 + change.1 * f);
         }
-        Some(Pair { t: e.t, g, d: scale2(d, 1.0 / PAIR_S), reported: e.has_velocity(), early })
+        Some(Pair { t: e.t, g, d: scale2(d, 1.0 / span), reported: e.has_velocity(), early })
     }
 
     /// The next velocity pair to judge: the oldest entry not judged yet whose DR velocity at
