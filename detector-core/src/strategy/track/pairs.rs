@@ -10,7 +10,8 @@ use super::state::TrackCheck;
 use super::velocity;
 
 /// The span of a velocity pair, seconds: the receiver's velocity against the DR's over this
-/// much centred on it, or both displacements over this much.
+/// much centred on it (position differences span [`velocity::POSITION_SPAN_S`]; the
+/// calibration's delay fits take both displacements over this much).
 pub(super) const PAIR_S: f32 = 1.0;
 /// Velocity pairs judged per epoch at most (a backlog, see `next_pair`, is caught up), and
 /// how far behind the newest ready entry a pair may be, seconds (older ones are skipped).
