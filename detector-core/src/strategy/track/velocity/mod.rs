@@ -243,7 +243,11 @@ impl VelocityTest {
             }
             out.suspicious |= t_w > cfg.freeze * h || gross;
         }
-        out.bound_10s_mps = self.h * libm::sqrtf(cfg.kappa_s / WINDOWS_S[1]) * self.ch[ALONG].sigma;
+        // The shortest window's bound at the residual's own correlation time (the 30 s window's
+        // before: at `kappa_s`, 0.58 times the 10 s bound of a receiver's own velocity; the same
+        // number for position differences, whose `kappa_position_s / 10` is `kappa_s / 30`).
+        let kappa = if ends.is_some() { cfg.kappa_position_s } else { cfg.kappa_s };
+        out.bound_10s_mps = self.h * libm::sqrtf(kappa / WINDOWS_S[0]) * self.ch[ALONG].sigma;
         out
     }
 }

@@ -14,11 +14,10 @@ fn the_threshold_follows_the_budget() {
     }
 }
 
-/// White noise of `noise` m/s, then a step of `step` from 300 s: the time to fire.
-fn time_to_fire(step: f32, noise: f32) -> Option<f32> {
-    let mut v = VelocityTest::new(VelocityConfig::default());
+/// Standard normal draws (the sum of twelve uniforms), the same sequence every run.
+fn gauss() -> impl FnMut() -> f32 {
     let mut x = 0x9E37_79B9_7F4A_7C15u64;
-    let mut gauss = || {
+    move || {
         let mut s = 0.0;
         for _ in 0..12 {
             x ^= x << 13;
@@ -27,7 +26,13 @@ fn time_to_fire(step: f32, noise: f32) -> Option<f32> {
             s += (x >> 40) as f32 / (1u64 << 24) as f32;
         }
         s - 6.0
-    };
+    }
+}
+
+/// White noise of `noise` m/s, then a step of `step` from 300 s: the time to fire.
+fn time_to_fire(step: f32, noise: f32) -> Option<f32> {
+    let mut v = VelocityTest::new(VelocityConfig::default());
+    let mut gauss = gauss();
     for k in 0..600 {
         let t = k as f32;
         let r = noise * gauss() + if t >= 300.0 { step } else { 0.0 };
@@ -50,6 +55,32 @@ fn a_step_is_found_and_noise_alone_is_not() {
     // own excursion) over 2 s, three fixes.
     assert!(time_to_fire(3.0, 0.15).is_some_and(|t| (2.9..=3.0).contains(&t)));
     assert!(time_to_fire(5.0, 0.15).is_some_and(|t| (1.9..=2.0).contains(&t)));
+}
+
+/// `bound_10s_mps` is the step the 10 s window finds (it was the 30 s window's, 0.58 times
+/// that, for a receiver's own velocity): a step of 1.5 times it is beyond `h` there once the
+/// window holds it (the onset, one large first difference, raises the noise by about a third),
+/// one of 0.6 times it is not.
+#[test]
+fn the_10s_bound_is_the_10s_windows() {
+    let run = |share: f32| {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        let mut gauss = gauss();
+        let (mut bound, mut peak) = (0.0f32, 0.0f32);
+        for k in 0..330 {
+            let t = k as f32;
+            let r = 0.15 * gauss() + if t >= 300.0 { share * bound } else { 0.0 };
+            let o = v.observe(t, [Some((r, 0.0)), None], None);
+            if t < 300.0 {
+                bound = o.bound_10s_mps;
+            } else if t >= 309.0 {
+                peak = peak.max(o.t_windows[ALONG][0] / o.h);
+            }
+        }
+        peak
+    };
+    assert!(run(1.5) > 1.0, "{}", run(1.5));
+    assert!(run(0.6) < 1.0, "{}", run(0.6));
 }
 
 /// A receiver's glitch of three fixes at metres per second is not a drift, whatever the fix
