@@ -16,6 +16,10 @@ pub(super) struct Bin {
     pub(super) dist: f32,
 }
 
+/// Per window, the ends' `(s0^2, k^2)` and the least their error is, m^2 (see
+/// `Channel::statistic`).
+pub(super) type EndsNoise<'a> = (&'a [(f32, f32); WINDOWS], &'a [f32; WINDOWS]);
+
 /// One channel's state.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Channel {
@@ -106,11 +110,11 @@ impl Channel {
     /// window's two ends where the pairs are position differences (their sum over a window is
     /// the window's displacement, so its error is the ends' error, not a sum of independent
     /// ones): per window `(s0^2, k^2)` of `s0^2 + k^2 L^2` (m^2), `L` the distance the
-    /// window's pairs covered; `None` for a receiver's own velocity.
+    /// window's pairs covered, and the least it is (m^2); `None` for a receiver's own velocity.
     ///
     /// `common` ((m/s)^2) is an error every pair of a window shares (a coarse wheel speed's
     /// rounding while the speed holds): no window averages it away.
-    pub(super) fn statistic(&self, cfg: &VelocityConfig, ends: Option<&[(f32, f32); WINDOWS]>, kappa: f32, common: f32) -> [f32; WINDOWS] {
+    pub(super) fn statistic(&self, cfg: &VelocityConfig, ends: Option<EndsNoise<'_>>, kappa: f32, common: f32) -> [f32; WINDOWS] {
         let (mut zw, mut w, mut iw, mut l) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
         let mut best = [0.0f32; WINDOWS];
         if self.head == i32::MIN {
@@ -133,7 +137,7 @@ impl Channel {
                         // metres over the window, each second divided by the noise its z was
                         // taken with (not the noise now: a noise that rose since would shrink
                         // the ends' share while the older z stay large).
-                        let e = ends.and_then(|n| n.get(wi)).map_or(0.0, |(s2, k2)| (s2 + k2 * l * l).max(0.0));
+                        let e = ends.and_then(|(n, f)| Some((n.get(wi)?, f.get(wi)?))).map_or(0.0, |((s2, k2), f)| (s2 + k2 * l * l).max(*f).max(0.0));
                         let ends = e * (iw / w) * (iw / w) / (w * w);
                         let shared = common * (iw / w) * (iw / w);
                         *b = libm::fabsf(zw / w) / libm::sqrtf(kappa.max(0.1) / w + ends + shared);

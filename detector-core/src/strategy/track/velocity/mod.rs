@@ -34,7 +34,10 @@
 //! position wandering by metres in town looks like a short drift otherwise): the learnt
 //! along-track noise `s0^2 + k^2 L^2` at the distance `L` the window's pairs covered (each bin
 //! keeps its metres; the newest pair's speed times the window's length made a car slowing to a
-//! stop shrink the 60 s window's error and fire it with no new residual). An error every
+//! stop shrink the 60 s window's error and fire it with no new residual), at least
+//! [`Ends::floor_m2`] (the caller's: for the 30 and 60 s windows the receiver class's stated
+//! accuracy, since a wander's error grows with the time a window spans, not with the metres
+//! driven, and what was learnt in metres on the road understates it in town). An error every
 //! pair of a window shares, `c` ((m/s)^2: a wheel speed in whole km/h is up to 0.14 m/s off
 //! for as long as the speed holds, variance `q^2 / 12` at resolution `q`), adds
 //! `c mean(1/sd)^2` under the root: no window averages it away. With
@@ -77,12 +80,15 @@ use gross::GrossRun;
 pub use gross::{GROSS_ACROSS_MPS, GROSS_FAST_MPS, GROSS_FAST_S, GROSS_SLOW_MPS, GROSS_SLOW_S};
 
 /// Where the pairs are position differences: the noise of a window's two ends, per window
-/// `(s0^2, k^2)` of `s0^2 + k^2 L^2` (m^2) at the distance `L` its pairs covered, and the
-/// distance the pair covered per second, m/s.
+/// `(s0^2, k^2)` of `s0^2 + k^2 L^2` (m^2) at the distance `L` its pairs covered, at least
+/// `floor_m2`, and the distance the pair covered per second, m/s.
 #[derive(Clone, Copy, Debug)]
 pub struct Ends {
     /// Per window, `(s0^2, k^2)`.
     pub noise: [(f32, f32); WINDOWS],
+    /// Per window, the least error of its ends, m^2, whatever the distance (see the module
+    /// documentation, "The statistic").
+    pub floor_m2: [f32; WINDOWS],
     /// The pair's speed, m/s: the metres it covers per second of weight.
     pub speed_mps: f32,
 }
@@ -223,7 +229,7 @@ impl VelocityTest {
         let h = self.h;
         for ((k, ch), common) in self.ch.iter_mut().enumerate().zip(self.common_var) {
             let kappa = if ends.is_some() { cfg.kappa_position_s } else { cfg.kappa_s };
-            let tw = ch.statistic(&cfg, ends.as_ref().map(|e| &e.noise), kappa, common);
+            let tw = ch.statistic(&cfg, ends.as_ref().map(|e| (&e.noise, &e.floor_m2)), kappa, common);
             let t_w = tw.iter().fold(0.0f32, |a, b| a.max(*b));
             if let Some(o) = out.t_windows.get_mut(k) {
                 *o = tw;

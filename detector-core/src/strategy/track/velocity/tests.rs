@@ -159,7 +159,7 @@ fn a_rising_noise_does_not_raise_the_statistic_of_older_pairs() {
     let mut v = VelocityTest::new(VelocityConfig::default());
     v.set_sigma([0.2, 0.2]);
     // 5 m at each end (25 m^2), whatever the distance.
-    let ends = Some(Ends { noise: [(25.0, 0.0); WINDOWS], speed_mps: 10.0 });
+    let ends = Some(Ends { noise: [(25.0, 0.0); WINDOWS], floor_m2: [0.0; WINDOWS], speed_mps: 10.0 });
     let mut before = 0.0;
     for k in 0..40 {
         // A residual of 0.3 m/s, alternating by 0.05 so the noise stays near 0.2.
@@ -186,14 +186,41 @@ fn a_slowing_car_does_not_raise_a_windows_statistic() {
     let mut before = 0.0;
     for k in 0..60 {
         let r = 0.4 + if k % 2 == 0 { 0.1 } else { -0.1 };
-        before = v.observe(k as f32, [Some((r, 0.0)), None], Some(Ends { noise, speed_mps: 25.0 })).t_windows[ALONG][2];
+        before = v.observe(k as f32, [Some((r, 0.0)), None], Some(Ends { noise, floor_m2: [0.0; WINDOWS], speed_mps: 25.0 })).t_windows[ALONG][2];
     }
     let mut after = 0.0f32;
     for k in 60..66 {
-        after = after.max(v.observe(k as f32, [Some((0.0, 0.0)), None], Some(Ends { noise, speed_mps: 3.0 })).t_windows[ALONG][2]);
+        after = after.max(v.observe(k as f32, [Some((0.0, 0.0)), None], Some(Ends { noise, floor_m2: [0.0; WINDOWS], speed_mps: 3.0 })).t_windows[ALONG][2]);
     }
     assert!(before > 1.0, "T {before}");
     assert!(after <= before * 1.05, "T {before} -> {after} at a crawl, no new evidence");
+}
+
+/// A window's ends' error is at least its floor, whatever the distance: a 1 Hz position-only
+/// receiver wandering by 30 m over 25 s in town (its residual -1.2 m/s while the car runs at
+/// 10 m/s: T 5.3 at 325 s) fires the 30 s window with 3.3 m learnt on the road, not with the
+/// class's stated accuracy (5 m, `2 a^2` = 50 m^2) as the floor (T 3.8); a drift of 2.5 m/s
+/// that stays fires with it.
+#[test]
+fn a_wander_in_town_is_judged_with_the_floor_of_the_ends_error() {
+    let fired = |floor: f32, wander: f32, drift: f32| {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        let mut gauss = gauss();
+        let noise = [(11.0, 1e-4); WINDOWS];
+        let floor_m2 = [0.0, floor, floor];
+        let mut fired = false;
+        for k in 0..420 {
+            let t = k as f32;
+            let r = 0.3 * gauss() + if (300.0..325.0).contains(&t) { wander } else { 0.0 } + if t >= 300.0 { drift } else { 0.0 };
+            let o = v.observe(t, [Some((r, 0.0)), None], Some(Ends { noise, floor_m2, speed_mps: 10.0 }));
+            fired |= o.fired[ALONG];
+        }
+        fired
+    };
+    assert!(fired(0.0, -1.2, 0.0));
+    assert!(!fired(50.0, -1.2, 0.0));
+    assert!(fired(50.0, 0.0, 2.5));
+    assert!(!fired(50.0, 0.0, 0.0));
 }
 
 /// A channel that stops being judged (the across channel once the frame is no longer
@@ -273,7 +300,7 @@ fn position_differences_fire_after_a_shorter_persistence() {
         None
     };
     // 1 m at each end: the ends' error does not hide 0.6 m/s.
-    let ends = Some(Ends { noise: [(1.0, 0.0); WINDOWS], speed_mps: 10.0 });
+    let ends = Some(Ends { noise: [(1.0, 0.0); WINDOWS], floor_m2: [0.0; WINDOWS], speed_mps: 10.0 });
     assert_eq!(held(ends, 1.0), Some(1));
     assert_eq!(held(None, 1.0), Some(2));
     // A logger's fixes 0.98 s apart: two in a row are still two in a row.
@@ -284,7 +311,7 @@ fn position_differences_fire_after_a_shorter_persistence() {
 fn hostile_numbers_end_every_step() {
     let mut v = VelocityTest::new(VelocityConfig::default());
     for (k, x) in [f32::NAN, f32::INFINITY, 1e30, -1e30, f32::MAX, 0.0].iter().enumerate() {
-        let _ = v.observe(k as f32, [Some((*x, *x)), Some((*x, 0.0))], Some(Ends { noise: [(*x, *x); WINDOWS], speed_mps: *x }));
+        let _ = v.observe(k as f32, [Some((*x, *x)), Some((*x, 0.0))], Some(Ends { noise: [(*x, *x); WINDOWS], floor_m2: [*x; WINDOWS], speed_mps: *x }));
         let _ = v.observe(*x, [Some((1.0, 0.0)), None], None);
     }
 }
