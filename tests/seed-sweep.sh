@@ -5,7 +5,8 @@
 # prints every false alarm (seed, nuisance kind, drive and draw, what fired) and the total with
 # its judged hours and Poisson 95 % upper bound. Run by hand (about 10 min for 40 seeds on two
 # cores), not by the test command; docs/evaluation.md ("Other draws") records its results.
-# Reports go to $SWEEP_OUT (default target/seed-sweep/sN).
+# Reports go to $SWEEP_OUT (default target/seed-sweep/sN). BIN=path runs that host-sim binary
+# instead of building this tree's (two versions side by side: copy the older build aside first).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ $# -ge 2 ] || { echo "usage: bash tests/seed-sweep.sh FIRST LAST [JOBS]" >&2; exit 2; }
@@ -13,8 +14,9 @@ first=$1 last=$2 jobs=${3:-2}
 data=${GNSS_DATA_DIR:-../shared/data}
 out=${SWEEP_OUT:-target/seed-sweep}
 [ -d "$data/drives" ] || { echo "no drives under $data (set GNSS_DATA_DIR)" >&2; exit 1; }
-cargo build -q --release -p host-sim
-bin=target/release/host-sim
+[ -n "${BIN:-}" ] || cargo build -q --release -p host-sim
+bin=${BIN:-target/release/host-sim}
+[ -x "$bin" ] || { echo "no host-sim binary at $bin" >&2; exit 1; }
 mkdir -p "$out"
 for s in $(seq "$first" "$last"); do rm -rf "$out/s$s"; done
 export bin data out
