@@ -31,8 +31,9 @@
 //! to; without a gyro the across-track error, the DR heading being the GNSS bearing, is most
 //! of `|e|^2`).
 //! The receiver's own accuracy (NMEA GST, UBX hAcc), when it reports one,
-//! floors `s0`. All of it learns only while nothing is suspicious, within bounds and rates once
-//! calibrated, and is kept across drives as a [`calibration::Record`]. One thing is not learnt
+//! floors `s0`. All of it learns only while nothing is suspicious (a first drive's warm-up
+//! freely, but never from pairs beyond the velocity test's gross path's bounds), within bounds
+//! and rates once calibrated, and is kept across drives as a [`calibration::Record`]. One thing is not learnt
 //! that way: a receiver that reports its velocity says how noisy its position is now (its
 //! position against the integral of its own velocity over each window), and the windows take
 //! that, up to 12 m, where it is above the learnt noise (`TrackCheck::gnss_noise`).
@@ -236,6 +237,9 @@ impl TrackCheck {
                 velocity::Ends { noise, floor_m2, speed_mps: libm::sqrtf(norm2(p.d)) }
             });
             let mut o = self.vel.observe(p.t, r, ends);
+            if self.vel.gross_live() {
+                self.last_gross_t = p.t;
+            }
             // An earlier pair of this epoch that fired or raised suspicion still counts.
             if let Some((_, prev)) = vel {
                 for (f, pf) in o.fired.iter_mut().zip(prev.fired) {
@@ -340,10 +344,15 @@ impl TrackCheck {
         // first drive's warm-up learns freely and says so.
         let free = !self.cal.calibrated() || self.warming();
         let before = self.cal.contradiction();
-        let learns = moving && (free || !suspicious);
+        // Free, but not from pairs beyond the gross path's bounds: those are beyond what the
+        // calibration's own uncertainty explains (a first drive's warm-up otherwise took a
+        // drift of 10 m/s a minute in as a delay swinging from -1.5 to +3 and -3 s, and found
+        // it 52 s later).
+        let learns = moving && (free && !self.vel.gross_live() || !suspicious);
         if moving {
-            // The calibration's pairs: learnt only when allowed; this drive's own estimate (the
-            // contradiction test) always.
+            // The calibration's pairs: learnt only when allowed, and never inside a gross
+            // episode (they are seconds older than the pairs judged); this drive's own
+            // estimate (the contradiction test) always.
             self.learn_calibration(t, learns);
         }
         if learns {

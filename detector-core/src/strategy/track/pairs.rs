@@ -156,6 +156,7 @@ impl TrackCheck {
         let Some(e) = self.hist.newest_between(self.last_learn_t + LEARN_EVERY_S, limit) else { return };
         let dt = (e.t - self.last_learn_t).clamp(0.05, 1.0);
         self.last_learn_t = e.t;
+        let learns = learns && e.t - velocity::POSITION_SPAN_S > self.last_gross_t;
         // Grid point j is at e.t + DELAY_MIN_S - PAIR_S + j/8 s: the position pair of candidate
         // k ends at point GRID_POS_END - k, the velocity pair at GRID_VEL_END - k, each
         // GRID_PAIR points long.

@@ -94,6 +94,10 @@ pub struct TrackCheck {
     pub(super) last_delay_var_across: f32,
     /// When the velocity test last judged a pair (stretch time).
     pub(super) last_judged_t: f32,
+    /// When the last pair beyond the gross path's bounds was judged (stretch time): the
+    /// calibration learns no entry up to [`POSITION_SPAN_S`](super::velocity::POSITION_SPAN_S)
+    /// before it (its entries are seconds older than the pairs judged).
+    pub(super) last_gross_t: f32,
     /// Whether the velocity test's last pair this stretch was blind (`None`: no pair yet).
     pub(super) vel_blind: Option<bool>,
     /// The receiver's reported velocity integrated, metres, since `vi_since` (stretch time;
@@ -175,6 +179,7 @@ impl TrackCheck {
             last_acc: (0.0, 0.0),
             last_delay_var_across: 0.0,
             last_judged_t: f32::NEG_INFINITY,
+            last_gross_t: f32::NEG_INFINITY,
             vel_blind: None,
             vi: (0.0, 0.0),
             vi_since: f32::INFINITY,
@@ -410,6 +415,7 @@ impl TrackCheck {
         self.last_pred = None;
         self.last_acc = (0.0, 0.0);
         self.last_judged_t = f32::NEG_INFINITY;
+        self.last_gross_t = f32::NEG_INFINITY;
         self.vel_blind = None;
         self.vi_since = f32::INFINITY;
         self.vel.restart();

@@ -16,7 +16,10 @@
 //! - **rate-limited** once calibrated: the scale by [`CalLimits::scale_rate_per_s`], the delay by
 //!   one candidate per [`CalLimits::delay_dwell_s`];
 //! - **frozen** while evidence accumulates (the caller does not call [`Calibration::learn`]
-//!   then);
+//!   then), and never taught by a pair beyond the velocity test's gross path's bounds, not even
+//!   in a first drive's free warm-up (what the calibration's own uncertainty cannot explain is
+//!   not the car's: a drift of 10 m/s a minute into sddi_commuter's drive swung the delay from
+//!   -1.5 to +3 and -3 s before);
 //! - **kept across drives** as a [`Record`] (its byte format is `wire::calibration`);
 //! - **never silently relearnt**: this drive's own estimate, made beside the bounded one, that
 //!   contradicts the stored record beyond the bounds is reported ([`Calibration::contradiction`]).

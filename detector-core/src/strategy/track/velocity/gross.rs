@@ -50,11 +50,13 @@ pub(super) struct GrossRun {
 impl GrossRun {
     /// The run after a pair of residual `r` (m/s) and `z`: extended when the pair is beyond
     /// `gross` sigma and the slow floor of `floors` (slow, floor) in the run's direction,
-    /// begun anew in the other, ended below them. Not inlined: one copy for both channels.
+    /// begun anew in the other, ended below them, and none while the channel's noise is not yet
+    /// `measured` (its `z` are in the prior's units, not the receiver's: a receiver with 40 m
+    /// of noise at power-up fired). Not inlined: one copy for both channels.
     #[inline(never)]
-    pub(super) fn after(run: Option<GrossRun>, t: f32, z: f32, r: f32, gross: f32, floors: (f32, f32)) -> Option<GrossRun> {
+    pub(super) fn after(run: Option<GrossRun>, t: f32, z: f32, r: f32, gross: f32, floors: (f32, f32), measured: bool) -> Option<GrossRun> {
         let a = libm::fabsf(r);
-        if !(libm::fabsf(z) > gross && a > floors.0) {
+        if !(libm::fabsf(z) > gross && a > floors.0 && measured) {
             return None;
         }
         let (fast, beyond) = (a > GROSS_FAST_MPS, a > floors.1);

@@ -51,7 +51,8 @@
 //! [`GROSS_ACROSS_MPS`] across it) in the same direction for [`VelocityConfig::gross_s`],
 //! beyond [`GROSS_FAST_MPS`] for [`GROSS_FAST_S`], or along the road beyond
 //! [`GROSS_SLOW_MPS`] for [`GROSS_SLOW_S`], fire at once (a drift of metres per second, a
-//! frozen position: the smaller the run, the longer it must last). Every fix is judged, oldest
+//! frozen position: the smaller the run, the longer it must last), once the channel's noise is
+//! measured (four differences since the power-up: before them `z` is in the prior's units). Every fix is judged, oldest
 //! first, once the DR's velocity at the learnt delay is known for it (none is skipped when the
 //! vehicle signals are late), or would be within half a second: then on the DR's newest second
 //! carried forward at its last change (a 1 Hz receiver's pair otherwise waits a whole epoch for
@@ -181,6 +182,10 @@ impl VelocityTest {
             *c = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
         }
     }
+    /// A channel's newest pairs are beyond the gross path's bounds (a run, fired or not).
+    pub fn gross_live(&self) -> bool {
+        self.ch.iter().any(|c| c.gross_run.is_some())
+    }
     /// The channels' noise now (along, across), m/s.
     pub fn sigma(&self) -> [f32; 2] {
         [self.ch[ALONG].sigma, self.ch[ACROSS].sigma]
@@ -221,7 +226,7 @@ impl VelocityTest {
                 b.dist += ends.map_or(0.0, |e| e.speed_mps.max(0.0) * w);
             }
             let floors = if k == ALONG { (GROSS_SLOW_MPS, cfg.gross_mps) } else { (GROSS_ACROSS_MPS, GROSS_ACROSS_MPS) };
-            ch.gross_run = GrossRun::after(ch.gross_run, t, z, r, cfg.gross, floors);
+            ch.gross_run = GrossRun::after(ch.gross_run, t, z, r, cfg.gross, floors, ch.n_diffs >= 4);
             if let Some(o) = out.residual_mps.get_mut(k) {
                 *o = Some(r);
             }
