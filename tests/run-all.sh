@@ -46,6 +46,9 @@ GNSS_GUARD_HOST_SIM="$PWD/target/release/host-sim" "$venv/bin/python" -m pytest 
 
 phase "detector-core as a crate: rustdoc warning-free, packaged and verified with its kernel crate"
 RUSTDOCFLAGS="-D warnings" cargo doc -q -p detector-core -p gnss-guard-dsp --no-deps
+# Cargo verifies detector-core against gnss-guard-dsp unpacked into its registry cache, and
+# reuses an earlier unpacking of the same version: a change to the kernel crate's code needs its
+# version raised (and detector-core's requirement with it), as a release would.
 cargo publish -q --dry-run --allow-dirty -p gnss-guard-dsp -p detector-core
 echo "cargo publish --dry-run: gnss-guard-dsp and detector-core package and build from their packages"
 phase "detector-core for Cortex-M4F (no_std, no alloc)"

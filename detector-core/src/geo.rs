@@ -72,7 +72,7 @@ pub fn haversine_f32_m(a: LatLon, b: LatLon, radius_m: f64) -> f32 {
     // Rounding can push h a hair above 1 for antipodal points; asin would return NaN.
     #[allow(clippy::manual_clamp)] // max/min: no bounds assertion in the no-panic link
     let h = h.max(0.0).min(1.0);
-    2.0 * radius_m as f32 * libm::asinf(libm::sqrtf(h))
+    2.0 * radius_m as f32 * libm::asinf(gnss_guard_dsp::sqrtf(h))
 }
 
 /// [`initial_bearing_deg`] in `f32` on the coordinate differences: with

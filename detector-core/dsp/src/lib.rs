@@ -1,8 +1,9 @@
 //! The LSTM's dot-product kernels: `sum w[i] * v[i]` of int8 weights (stored as bytes) and int16
 //! Q4.12 activations, accumulated exactly in i32, for two weight rows at once.
 //!
-//! This crate owns the hot loop of strategy 1 and nothing else (the CMSIS-NN / TFLite Micro
-//! pattern: one plain reference kernel, optimised kernels beside it, parity tests between them):
+//! This crate owns the hot loop of strategy 1 and, beside it, [`sqrtf`] (the FPU's `VSQRT.F32`
+//! where libm cannot reach it). Both follow the CMSIS-NN / TFLite Micro pattern: one plain
+//! reference kernel, optimised kernels beside it, parity tests between them:
 //!
 //! - [`portable`]: the reference, plain Rust in natural order, on every target.
 //! - Cortex-M4 (ARMv7E-M, chosen by `build.rs` from the target name): inline assembly with the DSP
@@ -29,6 +30,9 @@ extern crate std;
 
 pub mod emulated;
 pub mod portable;
+mod sqrt;
+
+pub use sqrt::{sqrtf, HARDWARE_SQRT};
 
 #[cfg(dsp_ext)]
 mod arm;

@@ -220,7 +220,7 @@ impl Motion {
             (None, Some(d)) if s.dt_s > 0.0 => {
                 let v = d / s.dt_s;
                 let b = pos_speed.unwrap_or(v);
-                let mov = c.pos_move_mps.max(STANDING_RMS_FACTOR * libm::sqrtf(self.standing_ms));
+                let mov = c.pos_move_mps.max(STANDING_RMS_FACTOR * gnss_guard_dsp::sqrtf(self.standing_ms));
                 // While the wheels stand, the position-derived speed is the receiver's noise.
                 if self.wheel == MotionState::Standing && v.is_finite() && v < mov {
                     let k = (s.dt_s / 30.0).clamp(0.0, 1.0);

@@ -66,7 +66,7 @@ impl NmeaFixer {
             }
             Ok(Sentence::Gst(g)) => {
                 let h = match (g.sd_lat_m, g.sd_lon_m) {
-                    (Some(a), Some(b)) => libm::sqrtf(a * a + b * b),
+                    (Some(a), Some(b)) => gnss_guard_dsp::sqrtf(a * a + b * b),
                     _ => f32::NAN,
                 };
                 self.gst = match g.time_s {

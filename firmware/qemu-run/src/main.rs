@@ -251,6 +251,37 @@ fn dsp_parity(predictor: &Predictor) -> Result<u32, &'static str> {
     Ok(cases)
 }
 
+/// The FPU's square root (`VSQRT.F32`, what [`gnss_guard_dsp::sqrtf`] is on this target) against
+/// libm's integer one, bit for bit: zeros, infinities, NaNs, subnormals, the largest values and
+/// a stride through every exponent of both signs (a NaN need only be a NaN). Returns the number
+/// of inputs, or the first that differs.
+fn sqrt_parity() -> Result<u32, &'static str> {
+    if !gnss_guard_dsp::HARDWARE_SQRT {
+        return Err("this build does not use the FPU's square root");
+    }
+    let same = |bits: u32| {
+        let x = f32::from_bits(bits);
+        let (h, r) = (gnss_guard_dsp::sqrtf(core::hint::black_box(x)), libm::sqrtf(x));
+        if r.is_nan() { h.is_nan() } else { h.to_bits() == r.to_bits() }
+    };
+    let mut cases = 0u32;
+    for bits in [0u32, 0x8000_0000, 1, 0x8000_0001, 0x007F_FFFF, 0x0080_0000, 0x3F80_0000, 0x4080_0000, 0x7F7F_FFFF, 0x7F80_0000, 0xFF80_0000, 0x7FC0_0000, 0xFFC0_0001, 0x7F80_0001, 0xBF80_0000] {
+        if !same(bits) {
+            return Err("sqrtf: an edge case differs from libm");
+        }
+        cases += 1;
+    }
+    let mut bits = 0u32;
+    while bits < 0xFFFF_0000 {
+        if !same(bits) {
+            return Err("sqrtf differs from libm");
+        }
+        cases += 1;
+        bits += 0x1_0001; // about 65,500 inputs: every exponent, both signs, varied mantissas
+    }
+    Ok(cases)
+}
+
 /// The per-epoch geodesy, f64 (soft float on the M4) against the f32 forms the detector runs:
 /// instructions per call, 64 calls each on a 2.2 m shift.
 fn geodesy_cost(clock: &mut dyn FnMut() -> u32) {
@@ -297,6 +328,10 @@ fn main() -> ! {
     let cfg = Config::for_predictor(&UBLOX_10HZ, &predictor);
     match dsp_parity(&predictor) {
         Ok(n) => hprintln!("DSP kernels (SXTB16/SMLAD assembly) against the portable kernel: {} cases, all identical", n),
+        Err(e) => fail(e),
+    }
+    match sqrt_parity() {
+        Ok(n) => hprintln!("square root (VSQRT.F32) against libm's sqrtf: {} inputs, all identical", n),
         Err(e) => fail(e),
     }
 

@@ -108,7 +108,7 @@ impl TrackConfig {
     /// The position windows' threshold on `z` for the budget (see the module documentation).
     pub fn threshold(&self) -> f32 {
         let tests_per_hour = 3600.0 / WINDOWS_S[0] + 3600.0 / WINDOWS_S[1];
-        libm::sqrtf(libm::logf(tests_per_hour / self.budget_per_hour.max(1e-9)).max(1.0))
+        gnss_guard_dsp::sqrtf(libm::logf(tests_per_hour / self.budget_per_hour.max(1e-9)).max(1.0))
     }
 
     /// The distance a window must cover to be judged: half its length at the minimum speed.

@@ -43,7 +43,7 @@ impl TrackCheck {
         }
         let w = w * self.cal.scale();
         let (dx, dy) = (g.0 - e.g.0, g.1 - e.g.1);
-        let chord = libm::sqrtf(dx * dx + dy * dy);
+        let chord = gnss_guard_dsp::sqrtf(dx * dx + dy * dy);
         let slack = GAP_ERR_M + GAP_SCALE_TOL * w;
         let v = if last.wheel < wheel { last.wheel } else { wheel };
         let v = if w / gap < v { w / gap } else { v };

@@ -148,7 +148,7 @@ impl TrackCheck {
         out.scale = self.cal.scale();
         out.heading = source;
         out.rotation_deg = self.rot().map_or(0.0, |r| r.theta().to_degrees());
-        out.rotation_sd_deg = libm::sqrtf(self.rot_var()).to_degrees();
+        out.rotation_sd_deg = gnss_guard_dsp::sqrtf(self.rot_var()).to_degrees();
         out.turn_scale = self.rot().map_or(1.0, |r| 1.0 + r.scale_error());
         out.gyro_bias_degps = match (source, self.rot()) {
             (HeadingSource::Gyro, Some(r)) => self.bias - r.omega().to_degrees(),
@@ -167,8 +167,8 @@ impl TrackCheck {
         for wi in 0..WINDOWS_S.len() {
             let (s2, k2) = self.noise_params(wi);
             if let (Some(a), Some(b)) = (out.noise_s0_m.get_mut(wi), out.noise_k.get_mut(wi)) {
-                *a = libm::sqrtf(s2);
-                *b = libm::sqrtf(k2);
+                *a = gnss_guard_dsp::sqrtf(s2);
+                *b = gnss_guard_dsp::sqrtf(k2);
             }
         }
         Some(out)
@@ -234,7 +234,7 @@ impl TrackCheck {
                         *f = 2.0 * c.s0_prior_m * c.s0_prior_m;
                     }
                 }
-                velocity::Ends { noise, floor_m2, speed_mps: libm::sqrtf(norm2(p.d)) }
+                velocity::Ends { noise, floor_m2, speed_mps: gnss_guard_dsp::sqrtf(norm2(p.d)) }
             });
             let mut o = self.vel.observe(p.t, r, ends);
             if self.vel.gross_live() {
@@ -254,7 +254,7 @@ impl TrackCheck {
         // The slowest drift the position windows see within 10 s at 150 m driven.
         let (s2, k2) = noise0;
         let l = 150.0;
-        out.bound_10s_mps = Some(self.c * libm::sqrtf(s2.max(acc) + (k2 + self.rot_var()) * l * l) / WINDOWS_S[0]);
+        out.bound_10s_mps = Some(self.c * gnss_guard_dsp::sqrtf(s2.max(acc) + (k2 + self.rot_var()) * l * l) / WINDOWS_S[0]);
         if moving && !judging {
             self.unjudged_s += dt;
         } else if judging {
@@ -303,7 +303,7 @@ impl TrackCheck {
             z[wi] = w.z;
             if live {
                 if let Some(o) = out.windows.get_mut(wi) {
-                    *o = Some(WindowOutcome { e_m: libm::sqrtf(w.e2), threshold_m: self.c * libm::sqrtf(w.var), dist_m: w.l, z: w.z });
+                    *o = Some(WindowOutcome { e_m: gnss_guard_dsp::sqrtf(w.e2), threshold_m: self.c * gnss_guard_dsp::sqrtf(w.var), dist_m: w.l, z: w.z });
                 }
             }
         }

@@ -127,7 +127,7 @@ impl TrackCheck {
         // times it.
         let jerk = scale2(sub(acc, self.last_acc), p.early);
         self.last_acc = acc;
-        let sp = libm::sqrtf(norm2(pred));
+        let sp = gnss_guard_dsp::sqrtf(norm2(pred));
         if sp.is_nan() || sp < if p.reported { velocity::MIN_SPEED_REPORTED_MPS } else { vc.min_speed_mps } {
             return [None, None];
         }
@@ -143,7 +143,7 @@ impl TrackCheck {
                 let vc_ = rot.var_theta() * sp * sp + self.last_delay_var_across;
                 [Some((along, va)), (sp >= vc.min_speed_across_mps && self.aligned_frame()).then_some((across, vc_))]
             }
-            None => [Some((libm::sqrtf(norm2(p.g)) - sp, va)), None],
+            None => [Some((gnss_guard_dsp::sqrtf(norm2(p.g)) - sp, va)), None],
         }
     }
 
@@ -191,7 +191,7 @@ impl TrackCheck {
             let (g, derot) = if gyro {
                 (g, derot)
             } else {
-                let mag = |x: (f32, f32)| (libm::sqrtf(norm2(x)), 0.0);
+                let mag = |x: (f32, f32)| (gnss_guard_dsp::sqrtf(norm2(x)), 0.0);
                 for d in ds.iter_mut() {
                     *d = mag(*d);
                 }

@@ -106,7 +106,7 @@ impl Rotation {
         if !(var > 0.0 && var.is_finite() && p > var) {
             return;
         }
-        let f = libm::sqrtf(var / p);
+        let f = gnss_guard_dsp::sqrtf(var / p);
         for j in [0, 2] {
             self.p[1][j] *= f;
             self.p[j][1] *= f;

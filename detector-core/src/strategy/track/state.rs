@@ -259,7 +259,7 @@ impl TrackCheck {
     /// than three of its standard deviations: the record is contradicted, not relearnt.
     pub(super) fn check_gyro_scale(&mut self) {
         let Some(r) = self.stored else { return };
-        let (e, sd) = (self.rot_own.scale_error(), libm::sqrtf(self.rot_own.var_scale()));
+        let (e, sd) = (self.rot_own.scale_error(), gnss_guard_dsp::sqrtf(self.rot_own.var_scale()));
         let beyond = |centre: f32, bound: f32| libm::fabsf(e - centre) > bound + 3.0 * sd;
         if beyond(r.gyro_scale_error, GYRO_SCALE_BOUND) || beyond(r.anchor_gyro_scale_error, GYRO_SCALE_WALK) {
             self.cal.contradict(Contradiction::GyroScale);
@@ -295,7 +295,7 @@ impl TrackCheck {
         // The noise kept for the next drive rises by at most NOISE_RISE_PER_DRIVE over the
         // stored record's (the same receiver class's): see there.
         let same = stored.filter(|r| self.same_class(r));
-        let mut noise = [libm::sqrtf(s2a), libm::sqrtf(s2b), libm::sqrtf(k2a), libm::sqrtf(k2b), self.quiet_sigma[0], self.quiet_sigma[1]];
+        let mut noise = [gnss_guard_dsp::sqrtf(s2a), gnss_guard_dsp::sqrtf(s2b), gnss_guard_dsp::sqrtf(k2a), gnss_guard_dsp::sqrtf(k2b), self.quiet_sigma[0], self.quiet_sigma[1]];
         // The first record of this receiver class is its own anchor.
         let mut anchors = noise;
         if let Some(r) = same {
@@ -313,7 +313,7 @@ impl TrackCheck {
             gyro_bias_weight_s: self.bias_weight,
             gyro_scale_error: self.rot.scale_error(),
             anchor_gyro_scale_error: stored.map_or(self.rot.scale_error(), |r| r.anchor_gyro_scale_error),
-            gyro_scale_sd: libm::sqrtf(self.rot.var_scale()),
+            gyro_scale_sd: gnss_guard_dsp::sqrtf(self.rot.var_scale()),
             noise_s0_m: [noise[0], noise[1]],
             noise_k: [noise[2], noise[3]],
             velocity_sigma_mps: [noise[4], noise[5]],

@@ -49,7 +49,7 @@ impl TrackCheck {
         let g = sub(end.g, start.g);
         let d = sub(self.dr_at(t_end - tau, t)?.d, self.hist.at(ts - tau)?.d);
         let extra = (self.dr_var - start.u).max(0.0);
-        let l = libm::sqrtf(norm2(d));
+        let l = gnss_guard_dsp::sqrtf(norm2(d));
         let e = sub(g, cmul(self.gain(), d));
         let e2 = norm2(e);
         let (s2, k2) = self.noise_params(wi);
@@ -62,7 +62,7 @@ impl TrackCheck {
         if !(l.is_finite() && e2.is_finite() && var.is_finite()) {
             return None;
         }
-        let z = if var > 0.0 { libm::sqrtf(e2 / var) } else { 0.0 };
+        let z = if var > 0.0 { gnss_guard_dsp::sqrtf(e2 / var) } else { 0.0 };
         // Over the window's own entries: shifting the velocity by its learnt lag against the
         // position took two more history searches per epoch and changed no figure of `eval`
         // (3 of 817 scenarios' verdict streams).

@@ -25,7 +25,7 @@ pub fn dtw_reference(a: &[f32], b: &[f32], band: usize) -> f32 {
             d[i][j] = c + d[i - 1][j].min(d[i][j - 1]).min(d[i - 1][j - 1]);
         }
     }
-    libm::sqrtf(d[n][m])
+    gnss_guard_dsp::sqrtf(d[n][m])
 }
 
 /// Banded DTW with two rolling rows; abandons and returns `INFINITY` as soon as every cell of a
@@ -64,7 +64,7 @@ pub fn dtw_pruned(a: &[f32], b: &[f32], band: usize, best: f32) -> f32 {
         }
         core::mem::swap(&mut prev, &mut cur);
     }
-    libm::sqrtf(prev.get(m).copied().unwrap_or(f32::INFINITY))
+    gnss_guard_dsp::sqrtf(prev.get(m).copied().unwrap_or(f32::INFINITY))
 }
 
 /// LB_Keogh: a lower bound of banded DTW between `q` and the series whose band envelope is
@@ -79,7 +79,7 @@ pub fn lb_keogh(q: &[f32], upper: &[f32], lower: &[f32], best: f32) -> f32 {
             return f32::INFINITY;
         }
     }
-    libm::sqrtf(s)
+    gnss_guard_dsp::sqrtf(s)
 }
 
 /// The band envelope of `t`: running max and min over `[i - band, i + band]`.

@@ -338,7 +338,7 @@ impl Calibration {
         if b.is_nan() || b <= 0.0 {
             return 0.05;
         }
-        let sd = libm::sqrtf(sigma * sigma * kappa.max(1.0) / b) / self.scale.max(0.5);
+        let sd = gnss_guard_dsp::sqrtf(sigma * sigma * kappa.max(1.0) / b) / self.scale.max(0.5);
         if sd.is_finite() { sd.clamp(0.001, 0.05) } else { 0.05 }
     }
     /// The delay's uncertainty, seconds, never below 0.1 s (a delay is the model of a filter,
@@ -363,14 +363,14 @@ impl Calibration {
         if minutes <= 2.0 {
             return 0.5;
         }
-        let by_time = 0.5 * libm::sqrtf(2.0 / minutes);
+        let by_time = 0.5 * gnss_guard_dsp::sqrtf(2.0 / minutes);
         let e = |k: Option<usize>| k.and_then(|k| set.fits.get(k)).map(DelayFit::explained);
         let by_fit = match (e(set.best.checked_sub(1)), e(Some(set.best)), e(Some(set.best + 1))) {
             (Some(lo), Some(mid), Some(hi)) => {
                 let c = (2.0 * mid - lo - hi) / (2.0 * DELAY_STEP_S * DELAY_STEP_S);
                 let off = delay_of(set.free) - delay_of(set.best);
                 let var = sigma * sigma * kappa.max(1.0) / c + off * off;
-                if c > 0.0 && var.is_finite() { libm::sqrtf(var) } else { 0.5 }
+                if c > 0.0 && var.is_finite() { gnss_guard_dsp::sqrtf(var) } else { 0.5 }
             }
             _ => 0.5,
         };
@@ -501,7 +501,7 @@ impl Calibration {
         let set = &self.sets[src as usize];
         if let (Some(r), None) = (self.stored, self.contradiction) {
             if let Some(own) = set.own.scale().filter(|_| set.own_s >= self.lim.contradict_after_s) {
-                let sd = libm::sqrtf(noise / set.own.b.max(1e-6)) / r.scale;
+                let sd = gnss_guard_dsp::sqrtf(noise / set.own.b.max(1e-6)) / r.scale;
                 let beyond = |centre: f32, bound: f32| libm::fabsf(own / centre - 1.0) > bound + 3.0 * sd;
                 if beyond(r.scale, self.lim.scale_bound) || beyond(r.anchor_scale, self.walk_allowance(&r)) {
                     self.contradiction = Some(Contradiction::Scale);

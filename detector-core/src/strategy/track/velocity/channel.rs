@@ -140,7 +140,7 @@ impl Channel {
                         let e = ends.and_then(|(n, f)| Some((n.get(wi)?, f.get(wi)?))).map_or(0.0, |((s2, k2), f)| (s2 + k2 * l * l).max(*f).max(0.0));
                         let ends = e * (iw / w) * (iw / w) / (w * w);
                         let shared = common * (iw / w) * (iw / w);
-                        *b = libm::fabsf(zw / w) / libm::sqrtf(kappa.max(0.1) / w + ends + shared);
+                        *b = libm::fabsf(zw / w) / gnss_guard_dsp::sqrtf(kappa.max(0.1) / w + ends + shared);
                     }
                 }
                 wi += 1;

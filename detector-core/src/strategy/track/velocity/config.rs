@@ -150,6 +150,6 @@ pub fn upper_quantile(q: f32) -> f32 {
     const D: [f32; 4] = [0.007784696, 0.32246712, 2.4451342, 3.7544086];
     let horner = |c: &[f32], x: f32| c.iter().fold(0.0f32, |acc, k| acc * x + k);
     let q = if q.is_finite() { q.clamp(1e-30, 0.5) } else { 0.5 };
-    let t = libm::sqrtf(-2.0 * libm::logf(q));
+    let t = gnss_guard_dsp::sqrtf(-2.0 * libm::logf(q));
     -horner(&C, t) / (horner(&D, t) * t + 1.0)
 }

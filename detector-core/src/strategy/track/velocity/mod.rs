@@ -215,7 +215,7 @@ impl VelocityTest {
                 continue;
             };
             ch.update_sigma(t, r, &cfg, floor, if ends.is_some() { POSITION_SPAN_S } else { 1.0 });
-            let sd = libm::sqrtf(ch.sigma * ch.sigma + v.max(0.0));
+            let sd = gnss_guard_dsp::sqrtf(ch.sigma * ch.sigma + v.max(0.0));
             let z = r / sd;
             // max/min, not clamp: clamp panics on bounds it cannot prove ordered.
             let zc = z.max(-cfg.clip).min(cfg.clip);
@@ -258,7 +258,7 @@ impl VelocityTest {
         // before: at `kappa_s`, 0.58 times the 10 s bound of a receiver's own velocity; the same
         // number for position differences, whose `kappa_position_s / 10` is `kappa_s / 30`).
         let kappa = if ends.is_some() { cfg.kappa_position_s } else { cfg.kappa_s };
-        out.bound_10s_mps = self.h * libm::sqrtf(kappa / WINDOWS_S[0]) * self.ch[ALONG].sigma;
+        out.bound_10s_mps = self.h * gnss_guard_dsp::sqrtf(kappa / WINDOWS_S[0]) * self.ch[ALONG].sigma;
         out
     }
 }
