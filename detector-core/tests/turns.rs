@@ -526,3 +526,70 @@ fn a_bearing_of_slow_fixes_is_not_judged_on_the_wheels_speed() {
     assert!(fast.first().is_some_and(|t| (41.0..46.0).contains(t)), "6 m steps: {fast:?}");
     assert!(fired(3.0).is_empty(), "3 m steps judged on the wheels' 6 m/s: {:?}", fired(3.0));
 }
+
+/// A 1 Hz receiver without speed or course (openxc_ford, sddi_commuter): the car slows from
+/// 8 m/s to a crawl of 2 m/s heading north, and for 6 s its position wanders south at 3 m/s (a
+/// receiver's error correlated over seconds, in town), so the fixes creep 1 m/s south; then it
+/// pulls off turning left by 90 deg. A bearing over 3 m that took 3 s is the wander's, not the
+/// road's: taken, the turn was measured from south to west, "opposite" the wheel (openxc_ford
+/// under GNSS noise of 4.7 m correlated over 5 s, nuisance seed 226). The heading the turn is
+/// measured from is the road's.
+#[test]
+fn a_slow_bearing_at_a_crawl_is_no_heading() {
+    let motion = |t: f64| match t {
+        t if t < 25.0 => (8.0, 0.0, 0.0),
+        t if t < 30.0 => (8.0 - 6.0 * (t - 25.0) / 5.0, 0.0, 0.0),
+        t if t < 36.0 => (2.0, 0.0, 0.0),
+        t if t < 44.0 => (5.0, -90.0 / 8.0, 300.0),
+        _ => (8.0, 0.0, 0.0),
+    };
+    let gnss = |t: f64, p: LatLon| destination(p, 180.0, 3.0 * (t.clamp(30.0, 36.0) - 30.0), EARTH_RADIUS_PAPER_M);
+    let out = drive_1hz(80, motion, gnss, false);
+    // The test's premise: over the crawl the fixes move south.
+    let (a, b) = (out[31].pos, out[35].pos);
+    let brg = detector_core::geo::initial_bearing_deg(a, b);
+    assert!((150.0..210.0).contains(&brg) && haversine_m(a, b, EARTH_RADIUS_PAPER_M) >= 3.0, "{brg}");
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).collect();
+    assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
+    assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
+}
+
+/// A car that turns left by 90 deg at 2.2 m/s into a stop, under a 1 Hz receiver without
+/// speed or course whose fixes lag the car by 60 % of the way from where the turn began (town
+/// noise: 0.9 m/s of apparent speed; the wheels' 22 m make it a turn to judge): no bearing of
+/// the turn spans its 3 m within 2.5 s, so the heading held from before the turn is all there
+/// is at its end. A turn whose end no heading was measured for is not judged: judged, it read
+/// as straight while the wheel turned (sddi_commuter's parking turn under GNSS noise of 5.8 m,
+/// nuisance seed 312).
+#[test]
+fn a_turn_whose_end_no_heading_shows_is_not_judged() {
+    let motion = |t: f64| match t {
+        t if t < 30.0 => (8.0, 0.0, 0.0),
+        t if t < 35.0 => (8.0 - 5.8 * (t - 30.0) / 5.0, 0.0, 0.0),
+        t if t < 45.0 => (2.2, -9.0, 300.0),
+        _ => (0.0, 0.0, 0.0),
+    };
+    let start = std::cell::Cell::new(None);
+    let gnss = |t: f64, p: LatLon| {
+        if t < 35.0 {
+            return p;
+        }
+        let s: LatLon = *start.get().get_or_insert(p);
+        start.set(Some(s));
+        let lerp = |a: f64, b: f64| a + 0.4 * (b - a);
+        LatLon::new(lerp(s.lat_deg, p.lat_deg), lerp(s.lon_deg, p.lon_deg))
+    };
+    let out = drive_1hz(80, motion, gnss, true);
+    // The test's premise: the fixes of the turn never cover 3 m within 2.5 s.
+    let crawl = out.windows(3).filter(|w| w[0].t >= 35.0).all(|w| haversine_m(w[0].pos, w[2].pos, EARTH_RADIUS_PAPER_M) < 3.0);
+    assert!(crawl);
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).filter(|o| o.end_t > 34.0).collect();
+    assert!(judged.is_empty(), "{judged:?}");
+    assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
+}

@@ -25,6 +25,14 @@
 //! A segment's turn must also be implied by the steering itself (integrated through the bicycle
 //! model, more than `gnss_turn_deg` the same way): a roundabout's steering can look like a turn
 //! while the net heading change is small.
+//!
+//! The GNSS heading is the receiver's course where it reports one with its speed, else the
+//! bearing over 3 m of track covered within 2.5 s: a bearing that took longer is a creeping
+//! car's, and a receiver's error wandering by metres over those seconds is in it. A segment
+//! after which the car stopped within 3 m by its wheels (a parking space, a queue) is judged
+//! only if a heading was measured after its steering settled: else the heading held from before
+//! the turn says nothing of the turn's end. A car that drove on while the GNSS showed no
+//! heading (a position frozen or creeping) is judged as before: that is an attack's.
 
 //!
 //! [`strategy`] ties them together: the 5 Hz ticks, the judgement, the GNSS-only heading check.

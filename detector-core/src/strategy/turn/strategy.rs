@@ -16,8 +16,20 @@ use crate::wire::templates::{TemplateSet, TurnClass, QUERY_LEN};
 pub static DEFAULT_TEMPLATES: &[u8] = include_bytes!("../../../models/turn_templates.bin");
 
 /// Without a reported course the GNSS heading is the bearing over at least this much track,
-/// metres.
+/// metres ...
 const BEARING_BASELINE_M: f32 = 3.0;
+/// ... driven within this long, seconds (1.2 m/s over the baseline; two fixes of a 1 Hz
+/// receiver, with their jitter). A receiver's position error is correlated over seconds, so
+/// over a short span it is nearly common to both ends and cancels in their bearing; a car
+/// creeping the baseline over longer takes the error's wander into its bearing instead
+/// (openxc_ford under GNSS noise of 4.7 m correlated over 5 s, nuisance seed 226: 3.4 m covered
+/// in 4 s at a crawl read as a heading of 224 deg where the car pointed about 30, and the left
+/// turn that followed as 72 deg right).
+/// A slower baseline is dropped and measured again from where the car is, unless there is no
+/// heading yet: a car that creeps out of its parking space would otherwise start its first
+/// heading, and the warm-up after it, only at the road, and its first turn would go unjudged
+/// (three of driveplotr_nds's held-out turns).
+const BEARING_MAX_SPAN_S: f64 = 2.5;
 /// The heading check judges a window only when the car covered this much in it, metres: at
 /// walking pace a receiver whose position wanders by metres in town (a smooth 6.5 m error)
 /// turns its bearings by 90 degrees.
@@ -206,8 +218,11 @@ pub struct TurnStrategy<'a> {
     templates: Option<TemplateSet<'a>>,
     seg: Segmenter,
     last: Option<LastSample>,
-    heading_anchor: Option<LatLon>,
+    /// Where the bearing's baseline starts, and when.
+    heading_anchor: Option<(LatLon, f64)>,
     heading: Option<f32>,
+    /// When `heading` was last measured (a course, or a bearing's newer end).
+    heading_t: f64,
     /// When the wheels last rolled at `min_speed_mps` (see `step`, the heading).
     rolled_t: f64,
     dist: f32,
@@ -242,6 +257,7 @@ impl<'a> TurnStrategy<'a> {
             last: None,
             heading_anchor: None,
             heading: None,
+            heading_t: f64::NEG_INFINITY,
             rolled_t: f64::NEG_INFINITY,
             dist: 0.0,
             next_tick: 0.0,
@@ -333,16 +349,22 @@ impl<'a> TurnStrategy<'a> {
             self.rolled_t = s.t;
         }
         let stood = s.t - self.rolled_t > self.cfg.gnss_lag_s as f64;
-        match (s.gnss_course.get(), self.heading_anchor) {
-            (Some(c), _) if moving && s.gnss_speed.is_valid() => self.heading = Some(c),
-            (_, Some(_)) if stood => self.heading_anchor = Some(s.pos),
-            (_, Some(a)) => {
-                if haversine_f32_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= BEARING_BASELINE_M {
-                    self.heading = Some(bearing_f32_deg(a, s.pos));
-                    self.heading_anchor = Some(s.pos);
-                }
+        let (measured, reanchor) = match (s.gnss_course.get(), self.heading_anchor) {
+            (Some(c), _) if moving && s.gnss_speed.is_valid() => (Some(c), false),
+            (_, Some(_)) if stood => (None, true),
+            (_, Some((a, t0))) => {
+                let slow = s.t - t0 > BEARING_MAX_SPAN_S && self.heading.is_some();
+                let far = haversine_f32_m(a, s.pos, EARTH_RADIUS_PAPER_M) >= BEARING_BASELINE_M;
+                ((far && !slow).then(|| bearing_f32_deg(a, s.pos)), far || slow)
             }
-            (_, None) => self.heading_anchor = Some(s.pos),
+            (_, None) => (None, true),
+        };
+        if measured.is_some() {
+            self.heading = measured;
+            self.heading_t = s.t;
+        }
+        if reanchor {
+            self.heading_anchor = Some((s.pos, s.t));
         }
         let Some(heading) = self.heading else {
             // No heading yet: start over at the next sample.
@@ -410,12 +432,13 @@ impl<'a> TurnStrategy<'a> {
     fn on_tick(&mut self, tick: Tick, derived: bool) -> Option<TurnOutcome> {
         match self.seg.push(tick, &self.cfg.rule()) {
             SegEvent::NoSegment => self.gnss_only_check(derived),
-            SegEvent::Ended { start, end, gnss_end } => self.judge(start, end, gnss_end, derived),
+            SegEvent::Ended { start, end, gnss_end } => self.judge(start, end, gnss_end, derived, tick.dist),
             SegEvent::Nothing | SegEvent::InSegment => None,
         }
     }
 
-    fn judge(&mut self, st: usize, end: usize, gnss_end: usize, derived: bool) -> Option<TurnOutcome> {
+    /// `now_dist`: the newest tick's distance (the trail's end, `gnss_end`).
+    fn judge(&mut self, st: usize, end: usize, gnss_end: usize, derived: bool, now_dist: f32) -> Option<TurnOutcome> {
         // The segment's ticks, at most MAX_SEGMENT of them: the buffer bounds the copy, never an index.
         let mut raw = [0.0f32; MAX_SEGMENT];
         let n = (end + 1).saturating_sub(st).min(MAX_SEGMENT);
@@ -432,6 +455,15 @@ impl<'a> TurnStrategy<'a> {
         let (start_t, end_t) = (first.t, last.t);
         if last.dist - first.dist < self.cfg.min_travel_m {
             return None; // wheel turned while (almost) standing: nothing for GNSS to show
+        }
+        if self.heading_t < last.t && now_dist - last.dist < BEARING_BASELINE_M {
+            // No heading measured since the wheel came back, and the car has not driven the
+            // baseline of one since: it crept out of the turn into a stop (a parking space, a
+            // queue), and the heading held from before says nothing of the turn's end
+            // (sddi_commuter's parking turn at 2262 to 2278 s of `nl_20210215_072115` under GNSS
+            // noise of 5.8 m: read as straight). Not judged. A car that drove on while the GNSS
+            // showed no heading (a position frozen or creeping) is judged: that is an attack's.
+            return None;
         }
         // Heading change the steering implies (kinematic bicycle model, + = right like bearings).
         let mut implied = 0.0f32;
