@@ -126,6 +126,13 @@ fn turn_fired(samples: &[Sample]) -> Vec<(f64, detector_core::fusion::Verdict)> 
     samples.iter().map(|s| d.step(s)).filter(|v| v.fired.contains(StrategyId::Turn)).map(|v| (v.t, v)).collect()
 }
 
+/// Every verdict of the detector (strategy 2 with the default templates) over `samples`.
+fn verdicts_of(samples: &[Sample]) -> Vec<detector_core::fusion::Verdict> {
+    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
+    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
+    samples.iter().map(|s| d.step(s)).collect()
+}
+
 #[test]
 fn consistent_turn_does_not_fire_and_is_classified() {
     let s = drive(true, true);
@@ -390,9 +397,7 @@ fn a_receivers_wander_while_standing_is_no_heading() {
         out.push(fix(t, 1.0, gp, prev, None, None, signals));
         prev = Some(gp);
     }
-    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
-    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
-    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let verdicts = verdicts_of(&out);
     let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).collect();
     assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
     assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
@@ -446,9 +451,7 @@ fn a_crawl_through_a_sharp_turn_is_not_judged_on_the_receivers_noise() {
         destination(p, 90.0, noise, EARTH_RADIUS_PAPER_M)
     };
     let out = drive_1hz(70, motion, gnss, true);
-    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
-    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
-    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let verdicts = verdicts_of(&out);
     let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).filter(|o| o.end_t > 44.0).collect();
     assert!(judged.is_empty(), "a crawl of 12 m judged as a turn: {judged:?}");
     // A crawl's GNSS steps: over 15 m within the turn.
@@ -549,9 +552,7 @@ fn a_slow_bearing_at_a_crawl_is_no_heading() {
     let (a, b) = (out[31].pos, out[35].pos);
     let brg = detector_core::geo::initial_bearing_deg(a, b);
     assert!((150.0..210.0).contains(&brg) && haversine_m(a, b, EARTH_RADIUS_PAPER_M) >= 3.0, "{brg}");
-    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
-    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
-    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let verdicts = verdicts_of(&out);
     let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).collect();
     assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
     assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
@@ -586,9 +587,7 @@ fn a_turn_whose_end_no_heading_shows_is_not_judged() {
     // The test's premise: the fixes of the turn never cover 3 m within 2.5 s.
     let crawl = out.windows(3).filter(|w| w[0].t >= 35.0).all(|w| haversine_m(w[0].pos, w[2].pos, EARTH_RADIUS_PAPER_M) < 3.0);
     assert!(crawl);
-    let set = TemplateSet::parse(DEFAULT_TEMPLATES).unwrap();
-    let mut d = Detector::new(Config::for_profile(&UBLOX_10HZ), KinematicPredictor::default()).with_turns(set);
-    let verdicts: Vec<_> = out.iter().map(|x| d.step(x)).collect();
+    let verdicts = verdicts_of(&out);
     let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).filter(|o| o.end_t > 34.0).collect();
     assert!(judged.is_empty(), "{judged:?}");
     assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
