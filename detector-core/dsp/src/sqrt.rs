@@ -58,9 +58,9 @@ fn vsqrt(x: f32) -> f32 {
 mod tests {
     use super::sqrtf;
 
-    /// The reference itself: libm's root squares back to within the rounding of the square, and
-    /// it is correctly rounded (neither neighbour of the result is nearer), on a sweep of bit
-    /// patterns over every exponent, subnormals included.
+    /// The reference itself: libm's root is correctly rounded (neither neighbour of the result
+    /// is nearer the exact root, taken in f64), on a sweep of bit patterns over every exponent,
+    /// subnormals included.
     #[test]
     fn libm_sqrtf_is_correctly_rounded() {
         let mut bits = 0u32;
