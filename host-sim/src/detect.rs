@@ -429,7 +429,7 @@ pub fn read_calibration(path: &std::path::Path) -> Option<Record> {
     };
     match Record::decode(&bytes) {
         Ok(r) => {
-            eprintln!("calibration: {}: scale {:.4}, delays {:.3} / {:.3} s, learnt over {} ({:.0} s)", path.display(), r.scale, r.delay_s[0], r.delay_s[1], drives(r.drives), r.learnt_s);
+            eprintln!("calibration: {}: scale {:.4}, {}, learnt over {} ({:.0} s)", path.display(), r.scale, delays(&r), drives(r.drives), r.learnt_s);
             Some(r)
         }
         Err(e) => {
@@ -496,6 +496,14 @@ pub fn record_text(r: &Record) -> Vec<String> {
     ]
 }
 
+/// A record's delays as a user reads them: the GNSS position's and the GNSS velocity's behind
+/// the vehicle signals (negative: the vehicle signals are late), `none` for a receiver that
+/// reports no velocity of its own.
+fn delays(r: &Record) -> String {
+    let f = |d: f32| if d.is_finite() { format!("{d:.3} s") } else { "none".into() };
+    format!("GNSS delays {} (position) / {} (velocity)", f(r.delay_s[0]), f(r.delay_s[1]))
+}
+
 /// Writes what the drive learnt to `path` (whole or not at all), unless there is nothing to
 /// store; says what happened (JSON: `loaded`, `written`, `contradicted`, `said`).
 pub fn write_calibration(path: &std::path::Path, stored: Option<&Record>, learnt: Option<&Record>, verdicts: &[Verdict]) -> anyhow::Result<Value> {
@@ -508,7 +516,7 @@ pub fn write_calibration(path: &std::path::Path, stored: Option<&Record>, learnt
         Some(r) => {
             crate::output::write_atomic(path, |w| w.write_all(&r.encode())).map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
             let when = alarm_t.map_or(String::new(), |t| format!(" (as saved at a standstill before the alarm at {t:.1} s: what the drive learnt after it is not kept)"));
-            format!("{} written: scale {:.4}, delays {:.3} / {:.3} s, {}{when}", path.display(), r.scale, r.delay_s[0], r.delay_s[1], drives(r.drives))
+            format!("{} written: scale {:.4}, {}, {}{when}", path.display(), r.scale, delays(r), drives(r.drives))
         }
         None if contradicted => format!("{} kept: this drive contradicts it (reason calibration_contradicted: another car, other tyres, or GNSS spoofed since before the drive); delete it to let the car be learnt afresh", path.display()),
         None if alarm_t.is_some() => format!("{} {}: an alarm latched at {:.1} s before the car stood still calibrated (what a drive under attack learnt is not kept)", path.display(), if stored.is_some() { "kept" } else { "not written" }, alarm_t.unwrap_or(f64::NAN)),
