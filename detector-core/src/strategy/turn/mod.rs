@@ -35,7 +35,8 @@
 //! heading (a position frozen or creeping) is judged as before: that is an attack's.
 
 //!
-//! [`strategy`] ties them together: the 5 Hz ticks, the judgement, the GNSS-only heading check.
+//! [`strategy`] ties them together: the 5 Hz ticks, the judgement, and (its child module
+//! `strategy/heading.rs`) the GNSS-only heading check.
 
 pub mod dtw;
 pub mod knn;
