@@ -133,6 +133,15 @@ fn verdicts_of(samples: &[Sample]) -> Vec<detector_core::fusion::Verdict> {
     samples.iter().map(|s| d.step(s)).collect()
 }
 
+/// Over `samples` strategy 2 judged a left turn that GNSS shows turning left by more than 60 deg,
+/// and never fired.
+fn assert_a_left_turn_judged_silently(samples: &[Sample]) {
+    let verdicts = verdicts_of(samples);
+    let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).collect();
+    assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
+    assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
+}
+
 #[test]
 fn consistent_turn_does_not_fire_and_is_classified() {
     let s = drive(true, true);
@@ -397,10 +406,7 @@ fn a_receivers_wander_while_standing_is_no_heading() {
         out.push(fix(t, 1.0, gp, prev, None, None, signals));
         prev = Some(gp);
     }
-    let verdicts = verdicts_of(&out);
-    let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).collect();
-    assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
-    assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
+    assert_a_left_turn_judged_silently(&out);
 }
 
 /// A 1 Hz receiver without speed or course turns right by 90 deg with the car at 4 m/s over
@@ -552,10 +558,7 @@ fn a_slow_bearing_at_a_crawl_is_no_heading() {
     let (a, b) = (out[31].pos, out[35].pos);
     let brg = detector_core::geo::initial_bearing_deg(a, b);
     assert!((150.0..210.0).contains(&brg) && haversine_m(a, b, EARTH_RADIUS_PAPER_M) >= 3.0, "{brg}");
-    let verdicts = verdicts_of(&out);
-    let judged: Vec<_> = verdicts.iter().filter_map(|v| v.turn).collect();
-    assert!(judged.iter().any(|o| o.steering == TurnClass::Left && o.gnss_change_deg < -60.0), "{judged:?}");
-    assert!(verdicts.iter().all(|v| !v.fired.contains(StrategyId::Turn)), "{judged:?}");
+    assert_a_left_turn_judged_silently(&out);
 }
 
 /// A car that turns left by 90 deg at 2.2 m/s into a stop, under a 1 Hz receiver without
