@@ -66,9 +66,9 @@ pub fn haversine_f32_m(a: LatLon, b: LatLon, radius_m: f64) -> f32 {
     let dp = ((b.lat_deg - a.lat_deg) as f32).to_radians();
     let dl = lon_diff_rad(a, b);
     let (p1, p2) = ((a.lat_deg as f32).to_radians(), (b.lat_deg as f32).to_radians());
-    let s1 = libm::sinf(dp * 0.5);
-    let s2 = libm::sinf(dl * 0.5);
-    let h = s1 * s1 + libm::cosf(p1) * libm::cosf(p2) * s2 * s2;
+    let s1 = crate::trig::sinf(dp * 0.5);
+    let s2 = crate::trig::sinf(dl * 0.5);
+    let h = s1 * s1 + crate::trig::cosf(p1) * crate::trig::cosf(p2) * s2 * s2;
     // Rounding can push h a hair above 1 for antipodal points; asin would return NaN.
     #[allow(clippy::manual_clamp)] // max/min: no bounds assertion in the no-panic link
     let h = h.max(0.0).min(1.0);
@@ -82,9 +82,9 @@ pub fn bearing_f32_deg(a: LatLon, b: LatLon) -> f32 {
     let dp = ((b.lat_deg - a.lat_deg) as f32).to_radians();
     let dl = lon_diff_rad(a, b);
     let (p1, p2) = ((a.lat_deg as f32).to_radians(), (b.lat_deg as f32).to_radians());
-    let h = libm::sinf(dl * 0.5);
-    let y = libm::sinf(dl) * libm::cosf(p2);
-    let x = libm::sinf(dp) + libm::sinf(p1) * libm::cosf(p2) * 2.0 * h * h;
+    let h = crate::trig::sinf(dl * 0.5);
+    let y = crate::trig::sinf(dl) * crate::trig::cosf(p2);
+    let x = crate::trig::sinf(dp) + crate::trig::sinf(p1) * crate::trig::cosf(p2) * 2.0 * h * h;
     let d = libm::atan2f(y, x).to_degrees();
     let r = if d < 0.0 { d + 360.0 } else { d };
     if r >= 360.0 { 0.0 } else { r }
@@ -154,7 +154,7 @@ pub fn to_local(origin: LatLon, p: LatLon, radius_m: f64) -> (f64, f64) {
 /// The cosine of a latitude for the local projections: `f32` on the FPU (relative error about
 /// 1e-7, far below the projection's own 0.1 %).
 fn cos_lat(lat_deg: f64) -> f64 {
-    libm::cosf((lat_deg as f32).to_radians()) as f64
+    crate::trig::cosf((lat_deg as f32).to_radians()) as f64
 }
 
 /// Inverse of [`to_local`].

@@ -7,6 +7,7 @@
 //! The modules follow the data path, each depending only on those above it in this list:
 //!
 //! 0. [`stage`]: cost accounting by stage (a stopwatch interface; nothing by default).
+//!    [`trig`]: sine, cosine and tangent (libm's, without the reduction of huge arguments).
 //! 1. [`wire`]: the binary formats read from flash (turn templates, LSTM model), one
 //!    little-endian reader, CRC-32.
 //! 2. [`geo`]: geodesy on WGS84 coordinates (haversine distance, initial bearing).
@@ -107,6 +108,7 @@
 
 pub mod stage;
 pub mod time;
+pub mod trig;
 pub mod wire;
 pub mod geo;
 pub mod sample;

@@ -37,7 +37,7 @@ impl Bicycle {
     /// The heading change, degrees + right (as bearings), of driving `dt_s` at `speed_mps` with
     /// the wheel at `steer_deg` (+ left).
     pub fn heading_change_deg(&self, steer_deg: f32, speed_mps: f32, dt_s: f32) -> f32 {
-        let curvature = libm::tanf((steer_deg / self.steer_ratio).to_radians()) / self.wheelbase_m;
+        let curvature = crate::trig::tanf((steer_deg / self.steer_ratio).to_radians()) / self.wheelbase_m;
         -(speed_mps * curvature * dt_s).to_degrees()
     }
 }

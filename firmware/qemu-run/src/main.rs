@@ -282,6 +282,32 @@ fn sqrt_parity() -> Result<u32, &'static str> {
     Ok(cases)
 }
 
+/// The detector's sine, cosine and tangent (`detector_core::trig`, without libm's reduction of
+/// huge arguments) against libm's on the target: every 0x1_0001th f32 below the bound of
+/// `2^28 pi/2`, both signs, the same bits; beyond it a finite sine, and NaN for infinity.
+fn trig_parity() -> Result<u32, &'static str> {
+    use core::hint::black_box;
+    use detector_core::trig;
+    let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+    let mut cases = 0u32;
+    let mut bits = 0u32;
+    while bits < 0x4DC9_0FDB {
+        for x in [f32::from_bits(bits), -f32::from_bits(bits)] {
+            let x = black_box(x);
+            if !(same(trig::sinf(x), libm::sinf(x)) && same(trig::cosf(x), libm::cosf(x)) && same(trig::tanf(x), libm::tanf(x))) {
+                return Err("sinf, cosf or tanf differs from libm");
+            }
+            cases += 1;
+        }
+        bits += 0x1_0001;
+    }
+    let huge = trig::sinf(black_box(1e30));
+    if !((-1.0..=1.0).contains(&huge) && trig::cosf(black_box(f32::INFINITY)).is_nan()) {
+        return Err("sinf beyond the bound is not within [-1, 1], or the cosine of infinity not NaN");
+    }
+    Ok(cases)
+}
+
 /// The per-epoch geodesy, f64 (soft float on the M4) against the f32 forms the detector runs:
 /// instructions per call, 64 calls each on a 2.2 m shift.
 fn geodesy_cost(clock: &mut dyn FnMut() -> u32) {
@@ -332,6 +358,10 @@ fn main() -> ! {
     }
     match sqrt_parity() {
         Ok(n) => hprintln!("square root (VSQRT.F32) against libm's sqrtf: {} inputs, all identical", n),
+        Err(e) => fail(e),
+    }
+    match trig_parity() {
+        Ok(n) => hprintln!("sine, cosine and tangent against libm's: {} inputs, all identical", n),
         Err(e) => fail(e),
     }
 

@@ -128,10 +128,10 @@ impl TrackCheck {
             // heading. No car covers more than MAX_SPEED_MPS: a larger integral is a fault.
             let dist = s.dist_m.get().filter(|x| x.is_finite()).unwrap_or(0.5 * (l.wheel + wheel) * dt).max(0.0).min(MAX_SPEED_MPS * dt.max(0.0) + 1.0);
             let half = 0.5 * turn;
-            let chord = if libm::fabsf(half) > 1e-4 { dist * libm::sinf(half) / half } else { dist };
+            let chord = if libm::fabsf(half) > 1e-4 { dist * crate::trig::sinf(half) / half } else { dist };
             let mid = self.psi + half;
-            self.dr.0 += chord * libm::cosf(mid);
-            self.dr.1 += chord * libm::sinf(mid);
+            self.dr.0 += chord * crate::trig::cosf(mid);
+            self.dr.1 += chord * crate::trig::sinf(mid);
             if (dt as f64) > MAX_STEP_S {
                 // Across a bridged gap the turn need not have been steady, and no GNSS corrects
                 // the gyro meanwhile. Nor need it have been one bend: the turning undone within
@@ -165,7 +165,7 @@ impl TrackCheck {
         let v = match (s.gnss_speed.get(), s.gnss_course.get()) {
             (Some(sp), Some(co)) if sp.is_finite() && co.is_finite() && libm::fabsf(sp) < MAX_SPEED_MPS => {
                 let b = co.to_radians();
-                (sp * libm::sinf(b), sp * libm::cosf(b))
+                (sp * crate::trig::sinf(b), sp * crate::trig::cosf(b))
             }
             _ => (f32::NAN, f32::NAN),
         };

@@ -24,6 +24,6 @@ pub(super) fn norm2(a: (f32, f32)) -> f32 {
 }
 /// `e^{i x}`: the unit vector at math angle `x`.
 pub(super) fn cis(x: f32) -> (f32, f32) {
-    (libm::cosf(x), libm::sinf(x))
+    (crate::trig::cosf(x), crate::trig::sinf(x))
 }
 
