@@ -23,7 +23,7 @@
 
 use core::f64::consts::FRAC_PI_2;
 
-/// Multiples of pi/2 rounded to double precision.
+/// Multiples of pi/2 rounded to double precision (1 to 4).
 const PIO2: [f64; 4] = [FRAC_PI_2, 2.0 * FRAC_PI_2, 3.0 * FRAC_PI_2, 4.0 * FRAC_PI_2];
 
 /// `sin(x)` in `[-pi/4, pi/4]` (`k_sinf.c`).
@@ -67,20 +67,35 @@ fn k_tanf(x: f64, odd: bool) -> f32 {
     (if odd { -1. / r } else { r }) as f32
 }
 
-/// `x` rem pi/2 and the quadrant, for `9 pi/4 < |x| < 2^28 pi/2` (`e_rem_pio2f.c`'s medium
-/// path); `None` beyond (see [`beyond`]).
+/// The quadrant `n` and `x - n pi/2` (in `f64`) for `|x| < 2^28 pi/2`: up to `9 pi/4` by the
+/// nearest multiple (msun's `s_sinf.c`, `s_cosf.c` and `s_tanf.c` write these four steps out in
+/// each function; `a - b` and `-(b - a)` are the same `f64`, so one form serves all three), beyond
+/// it by `e_rem_pio2f.c`'s medium path; `None` beyond that (see [`beyond`]).
 #[inline(never)]
-fn rem_pio2f(x: f32) -> Option<(i32, f64)> {
+fn reduce(x: f32) -> Option<(i32, f64)> {
     const TOINT: f64 = 1.5 / f64::EPSILON;
     const INV_PIO2: f64 = core::f64::consts::FRAC_2_PI; // msun: 6.36619772367581382433e-01, the same f64
     const PIO2_1: f64 = 1.57079631090164184570e+00;
     const PIO2_1T: f64 = 1.58932547735281966916e-08;
-    if x.to_bits() & 0x7fff_ffff >= 0x4dc9_0fdb {
+    let (ix, x64) = (x.to_bits() & 0x7fff_ffff, x as f64);
+    // |x| ~<= pi/4, 3 pi/4, 5 pi/4, 7 pi/4, 9 pi/4: the multiple of pi/2 nearest.
+    let (k, p) = if ix <= 0x3f49_0fda {
+        return Some((0, x64));
+    } else if ix <= 0x4016_cbe3 {
+        (1, PIO2[0])
+    } else if ix <= 0x407b_53d1 {
+        (2, PIO2[1])
+    } else if ix <= 0x40af_eddf {
+        (3, PIO2[2])
+    } else if ix <= 0x40e2_31d5 {
+        (4, PIO2[3])
+    } else if ix < 0x4dc9_0fdb {
+        let f_n = (x64 * INV_PIO2 + TOINT) - TOINT;
+        return Some((f_n as i32, x64 - f_n * PIO2_1 - f_n * PIO2_1T));
+    } else {
         return None;
-    }
-    let x64 = x as f64;
-    let f_n = (x64 * INV_PIO2 + TOINT) - TOINT;
-    Some((f_n as i32, x64 - f_n * PIO2_1 - f_n * PIO2_1T))
+    };
+    Some(if x.is_sign_negative() { (-k, x64 + p) } else { (k, x64 - p) })
 }
 
 /// `f` of a finite `x` beyond `2^28 pi/2` taken as its remainder by the `f32` nearest `2 pi`
@@ -90,32 +105,18 @@ fn beyond(x: f32, f: fn(f32) -> f32) -> f32 {
     if x.is_finite() { f(libm::remainderf(x, core::f32::consts::TAU)) } else { f32::NAN }
 }
 
+/// Below `2^-12` the sine and the tangent round to `x`, the cosine to 1.
+fn tiny(x: f32) -> bool {
+    x.to_bits() & 0x7fff_ffff < 0x3980_0000
+}
+
 /// The sine of `x` (radians): libm's `sinf` below `2^28 pi/2` (see the module documentation).
 #[inline(never)]
 pub fn sinf(x: f32) -> f32 {
-    let x64 = x as f64;
-    let ix = x.to_bits() & 0x7fff_ffff;
-    let sign = x.is_sign_negative();
-    let [p1, p2, p3, p4] = PIO2;
-    if ix <= 0x3f49_0fda {
-        // |x| ~<= pi/4; below 2^-12 sin(x) rounds to x.
-        return if ix < 0x3980_0000 { x } else { k_sinf(x64) };
+    if tiny(x) {
+        return x;
     }
-    if ix <= 0x407b_53d1 {
-        // |x| ~<= 5 pi/4
-        if ix <= 0x4016_cbe3 {
-            return if sign { -k_cosf(x64 + p1) } else { k_cosf(x64 - p1) };
-        }
-        return k_sinf(if sign { -(x64 + p2) } else { -(x64 - p2) });
-    }
-    if ix <= 0x40e2_31d5 {
-        // |x| ~<= 9 pi/4
-        if ix <= 0x40af_eddf {
-            return if sign { k_cosf(x64 + p3) } else { -k_cosf(x64 - p3) };
-        }
-        return k_sinf(if sign { x64 + p4 } else { x64 - p4 });
-    }
-    match rem_pio2f(x) {
+    match reduce(x) {
         Some((n, y)) => match n & 3 {
             0 => k_sinf(y),
             1 => k_cosf(y),
@@ -129,26 +130,10 @@ pub fn sinf(x: f32) -> f32 {
 /// The cosine of `x` (radians): libm's `cosf` below `2^28 pi/2`.
 #[inline(never)]
 pub fn cosf(x: f32) -> f32 {
-    let x64 = x as f64;
-    let ix = x.to_bits() & 0x7fff_ffff;
-    let sign = x.is_sign_negative();
-    let [p1, p2, p3, p4] = PIO2;
-    if ix <= 0x3f49_0fda {
-        return if ix < 0x3980_0000 { 1.0 } else { k_cosf(x64) };
+    if tiny(x) {
+        return 1.0;
     }
-    if ix <= 0x407b_53d1 {
-        if ix > 0x4016_cbe3 {
-            return -k_cosf(if sign { x64 + p2 } else { x64 - p2 });
-        }
-        return if sign { k_sinf(x64 + p1) } else { k_sinf(p1 - x64) };
-    }
-    if ix <= 0x40e2_31d5 {
-        if ix > 0x40af_eddf {
-            return k_cosf(if sign { x64 + p4 } else { x64 - p4 });
-        }
-        return if sign { k_sinf(-x64 - p3) } else { k_sinf(x64 - p3) };
-    }
-    match rem_pio2f(x) {
+    match reduce(x) {
         Some((n, y)) => match n & 3 {
             0 => k_cosf(y),
             1 => k_sinf(-y),
@@ -162,26 +147,10 @@ pub fn cosf(x: f32) -> f32 {
 /// The tangent of `x` (radians): libm's `tanf` below `2^28 pi/2`.
 #[inline(never)]
 pub fn tanf(x: f32) -> f32 {
-    let x64 = x as f64;
-    let ix = x.to_bits() & 0x7fff_ffff;
-    let sign = x.is_sign_negative();
-    let [p1, p2, p3, p4] = PIO2;
-    if ix <= 0x3f49_0fda {
-        return if ix < 0x3980_0000 { x } else { k_tanf(x64, false) };
+    if tiny(x) {
+        return x;
     }
-    if ix <= 0x407b_53d1 {
-        if ix <= 0x4016_cbe3 {
-            return k_tanf(if sign { x64 + p1 } else { x64 - p1 }, true);
-        }
-        return k_tanf(if sign { x64 + p2 } else { x64 - p2 }, false);
-    }
-    if ix <= 0x40e2_31d5 {
-        if ix <= 0x40af_eddf {
-            return k_tanf(if sign { x64 + p3 } else { x64 - p3 }, true);
-        }
-        return k_tanf(if sign { x64 + p4 } else { x64 - p4 }, false);
-    }
-    match rem_pio2f(x) {
+    match reduce(x) {
         Some((n, y)) => k_tanf(y, n & 1 != 0),
         None => beyond(x, tanf),
     }
