@@ -144,6 +144,25 @@ pub fn cosf(x: f32) -> f32 {
     }
 }
 
+/// The sine and the cosine of `x` (radians) with one reduction: `(sinf(x), cosf(x))`, bit for
+/// bit (a unit vector at an angle, the dead reckoning's step: one reduction, not two).
+#[inline(never)]
+pub fn sincosf(x: f32) -> (f32, f32) {
+    if tiny(x) {
+        return (x, 1.0);
+    }
+    match reduce(x) {
+        Some((n, y)) => match n & 3 {
+            0 => (k_sinf(y), k_cosf(y)),
+            1 => (k_cosf(y), k_sinf(-y)),
+            2 => (k_sinf(-y), -k_cosf(y)),
+            _ => (-k_cosf(y), k_sinf(y)),
+        },
+        None if x.is_finite() => sincosf(libm::remainderf(x, core::f32::consts::TAU)),
+        None => (f32::NAN, f32::NAN),
+    }
+}
+
 /// The tangent of `x` (radians): libm's `tanf` below `2^28 pi/2`.
 #[inline(never)]
 pub fn tanf(x: f32) -> f32 {
@@ -166,9 +185,9 @@ mod tests {
     }
 
     /// Every 4,099th `f32` from 0 to `2^28 pi/2` and its negative, the ranges' edges and the
-    /// special values: the same bits as libm's `sinf`, `cosf` and `tanf`. Beyond the bound a
-    /// finite argument keeps a finite result (sine and cosine within `[-1, 1]`), as with libm;
-    /// infinities and NaN give NaN.
+    /// special values: the same bits as libm's `sinf`, `cosf` and `tanf`, and `sincosf` as `sinf`
+    /// and `cosf`. Beyond the bound a finite argument keeps a finite result (sine and cosine
+    /// within `[-1, 1]`), as with libm; infinities and NaN give NaN.
     #[test]
     fn sin_cos_tan_are_libms_below_the_bound() {
         let edges = [0x3980_0000u32, 0x3f49_0fda, 0x4016_cbe3, 0x407b_53d1, 0x40af_eddf, 0x40e2_31d5, 0x4dc9_0fda];
@@ -179,17 +198,21 @@ mod tests {
                 assert!(same(sinf(x), libm::sinf(x)), "sin({x:e}) {} vs {}", sinf(x), libm::sinf(x));
                 assert!(same(cosf(x), libm::cosf(x)), "cos({x:e}) {} vs {}", cosf(x), libm::cosf(x));
                 assert!(same(tanf(x), libm::tanf(x)), "tan({x:e}) {} vs {}", tanf(x), libm::tanf(x));
+                let (sn, cs) = sincosf(x);
+                assert!(same(sn, sinf(x)) && same(cs, cosf(x)), "sincos({x:e}) {sn} {cs}");
                 n += 1;
             }
         }
         assert!(n > 600_000, "{n}");
         for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             assert!(sinf(x).is_nan() && cosf(x).is_nan() && tanf(x).is_nan(), "{x:e}");
+            assert!(sincosf(x).0.is_nan() && sincosf(x).1.is_nan(), "{x:e}");
         }
         for b in (0x4dc9_0fdbu32..0x7f80_0000).step_by(65_537).chain([0x4dc9_0fdb, 0x7f7f_ffff]) {
             for x in [f32::from_bits(b), -f32::from_bits(b)] {
                 let (s, c, t) = (sinf(x), cosf(x), tanf(x));
                 assert!((-1.0..=1.0).contains(&s) && (-1.0..=1.0).contains(&c) && !t.is_nan(), "{x:e}: {s} {c} {t}");
+                assert!(sincosf(x) == (s, c), "sincos({x:e})");
             }
         }
     }

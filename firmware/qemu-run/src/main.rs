@@ -282,7 +282,7 @@ fn sqrt_parity() -> Result<u32, &'static str> {
     Ok(cases)
 }
 
-/// The detector's sine, cosine and tangent (`detector_core::trig`, without libm's reduction of
+/// The detector's sine, cosine (alone and together) and tangent (`detector_core::trig`, without libm's reduction of
 /// huge arguments) against libm's on the target: every 0x1_0001th f32 below the bound of
 /// `2^28 pi/2`, both signs, the same bits; beyond it a finite sine, and NaN for infinity.
 fn trig_parity() -> Result<u32, &'static str> {
@@ -294,8 +294,9 @@ fn trig_parity() -> Result<u32, &'static str> {
     while bits < 0x4DC9_0FDB {
         for x in [f32::from_bits(bits), -f32::from_bits(bits)] {
             let x = black_box(x);
-            if !(same(trig::sinf(x), libm::sinf(x)) && same(trig::cosf(x), libm::cosf(x)) && same(trig::tanf(x), libm::tanf(x))) {
-                return Err("sinf, cosf or tanf differs from libm");
+            let (sn, cs) = trig::sincosf(x);
+            if !(same(trig::sinf(x), libm::sinf(x)) && same(trig::cosf(x), libm::cosf(x)) && same(trig::tanf(x), libm::tanf(x)) && same(sn, libm::sinf(x)) && same(cs, libm::cosf(x))) {
+                return Err("sinf, cosf, sincosf or tanf differs from libm");
             }
             cases += 1;
         }

@@ -130,8 +130,9 @@ impl TrackCheck {
             let half = 0.5 * turn;
             let chord = if libm::fabsf(half) > 1e-4 { dist * crate::trig::sinf(half) / half } else { dist };
             let mid = self.psi + half;
-            self.dr.0 += chord * crate::trig::cosf(mid);
-            self.dr.1 += chord * crate::trig::sinf(mid);
+            let (sin_mid, cos_mid) = crate::trig::sincosf(mid);
+            self.dr.0 += chord * cos_mid;
+            self.dr.1 += chord * sin_mid;
             if (dt as f64) > MAX_STEP_S {
                 // Across a bridged gap the turn need not have been steady, and no GNSS corrects
                 // the gyro meanwhile. Nor need it have been one bend: the turning undone within
@@ -165,7 +166,8 @@ impl TrackCheck {
         let v = match (s.gnss_speed.get(), s.gnss_course.get()) {
             (Some(sp), Some(co)) if sp.is_finite() && co.is_finite() && libm::fabsf(sp) < MAX_SPEED_MPS => {
                 let b = co.to_radians();
-                (sp * crate::trig::sinf(b), sp * crate::trig::cosf(b))
+                let (sin_b, cos_b) = crate::trig::sincosf(b);
+                (sp * sin_b, sp * cos_b)
             }
             _ => (f32::NAN, f32::NAN),
         };

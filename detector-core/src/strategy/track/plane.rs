@@ -24,6 +24,7 @@ pub(super) fn norm2(a: (f32, f32)) -> f32 {
 }
 /// `e^{i x}`: the unit vector at math angle `x`.
 pub(super) fn cis(x: f32) -> (f32, f32) {
-    (crate::trig::cosf(x), crate::trig::sinf(x))
+    let (s, c) = crate::trig::sincosf(x);
+    (c, s)
 }
 
