@@ -8,7 +8,8 @@
 //!   UART, frames to fixes and the receiver's own spoofing state;
 //! - [`pipeline`]: frames and sentences -> `detector_core` synchroniser -> detector -> verdicts,
 //!   with a digest of the verdict stream;
-//! - [`health`]: the status frames, the watchdog gate and the alarm outbox;
+//! - [`health`]: the status frames and the watchdog gate;
+//! - [`outbox`]: the alarm frames' outbox and the transmitter's queue;
 //! - [`replay`]: the compact replay input format and the scenario runner.
 #![no_std]
 #![forbid(unsafe_code)]
@@ -17,6 +18,7 @@ pub mod can;
 pub mod gnss;
 pub mod health;
 pub mod nmea;
+pub mod outbox;
 pub mod pipeline;
 pub mod replay;
 pub mod store;

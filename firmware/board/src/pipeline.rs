@@ -5,7 +5,8 @@
 use crate::can;
 use crate::gnss::NmeaFixer;
 use crate::ubx::UbxFixer;
-use crate::health::{AlarmFrame, AlarmOutbox, Faults, Health, StatusFrames};
+use crate::health::{Faults, Health, StatusFrames};
+use crate::outbox::{AlarmFrame, AlarmOutbox};
 use crate::store::{Loaded, SavePolicy};
 use detector_core::wire::calibration::Record;
 use detector_core::fusion::{Config, Detector, Verdict};

@@ -18,7 +18,8 @@
 //! the bus, decodes them back through the DBC's fields (status and alarm, as a receiver on the
 //! bus would), and asks the [`WatchdogGate`] every 0.5 s whether it may feed the watchdog.
 
-use crate::health::{decode_status, AlarmFrame, State, StatusPage, WatchdogGate, BLIND_AFTER_S, STATUS_PERIOD_S};
+use crate::health::{decode_status, State, StatusPage, WatchdogGate, BLIND_AFTER_S, STATUS_PERIOD_S};
+use crate::outbox::AlarmFrame;
 use crate::pipeline::{Digest, Pipeline};
 use detector_core::wire::le::{f64 as f64_at, u16 as u16_at, u32 as u32_at};
 use detector_core::fusion::{Config, Verdict};

@@ -20,7 +20,8 @@ use detector_core::profile::UBLOX_10HZ;
 use detector_core::strategy::location_shift::Predictor;
 use detector_core::strategy::turn::{TemplateSet, DEFAULT_TEMPLATES};
 use gnss_guard_board::ubx::{Chunk, Framer};
-use gnss_guard_board::health::{TxQueue, WatchdogGate};
+use gnss_guard_board::health::WatchdogGate;
+use gnss_guard_board::outbox::TxQueue;
 use gnss_guard_board::pipeline::Pipeline;
 #[cfg(not(feature = "find-panics"))]
 use panic_never as _;
