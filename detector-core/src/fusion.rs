@@ -212,6 +212,9 @@ pub struct Verdict {
     pub motion: Option<MotionOutcome>,
     /// Strategy 2's judgement, at the epochs where a steering segment ended or GNSS turned.
     pub turn: Option<TurnOutcome>,
+    /// Strategy 2's heading check, at the epochs it judged a window: how near it came to
+    /// firing ([`TurnStrategy::heading_share`]). Not in the board's verdict digest.
+    pub turn_heading: Option<f32>,
     /// Beyond the paper: the track check's windows, learnt delay and scale, when it ran.
     pub track: Option<TrackOutcome>,
     /// A strategy that ran is still in its start-up warm-up: strategy 1 waiting for the receiver
@@ -353,6 +356,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             shift: None,
             motion: None,
             turn: None,
+            turn_heading: None,
             track: None,
             learning: false,
             alarm: false,
@@ -462,6 +466,7 @@ impl<'t, P: ShiftPredictor> Detector<'t, P> {
             match ts.step(s) {
                 step @ (TurnStep::Ran | TurnStep::Judged(_)) => {
                     v.ran.insert(StrategyId::Turn);
+                    v.turn_heading = ts.heading_share();
                     if let TurnStep::Judged(o) = step {
                         if o.mismatch.is_some() {
                             v.fired.insert(StrategyId::Turn);

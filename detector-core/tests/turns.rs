@@ -167,6 +167,21 @@ fn gnss_turn_with_straight_wheel_fires() {
     assert_eq!(f[0].1.turn.unwrap().mismatch, Some(turn::TurnMismatch::GnssTurnWheelStraight));
 }
 
+/// The heading check's share of its threshold (`Verdict::turn_heading`, the eval's headroom):
+/// judged on the straight road before the turn, far below 1 there; above 1 where it fires.
+#[test]
+fn the_heading_checks_share_is_small_on_a_straight_road_and_beyond_one_where_it_fires() {
+    let v = verdicts_of(&drive(false, false));
+    let before: Vec<f32> = v.iter().filter(|x| x.t < 20.0).filter_map(|x| x.turn_heading).collect();
+    assert!(!before.is_empty(), "no window judged on the straight road");
+    assert!(before.iter().all(|&s| (0.0..0.2).contains(&s)), "{before:?}");
+    let fired = v.iter().find(|x| x.fired.contains(StrategyId::Turn)).expect("GNSS turned 90 deg with the wheel straight");
+    assert!(fired.turn_heading.is_some_and(|s| s > 1.0), "{:?}", fired.turn_heading);
+    // While the wheel turns with the GNSS, the heading check judges no window.
+    let v = verdicts_of(&drive(true, true));
+    assert!(v.iter().filter(|x| (21.0..28.0).contains(&x.t)).all(|x| x.turn_heading.is_none()));
+}
+
 #[test]
 fn no_steering_and_no_yaw_degrades_s2() {
     let mut s = drive(true, true);

@@ -179,6 +179,9 @@ pub fn verdict_json(v: &Verdict) -> Value {
         o["turn"] = json!({"steering": t.steering.name(), "distance": t.distance, "gnss_change_deg": t.gnss_change_deg, "steering_change_deg": t.steering_change_deg,
             "mismatch": t.mismatch.map(|m| format!("{m:?}")), "derived_steering": t.derived, "start_t": t.start_t, "end_t": t.end_t});
     }
+    if let Some(h) = v.turn_heading {
+        o["turn_heading_share"] = json!(h);
+    }
     // Beyond the paper: the track check's windows and what it learnt.
     if let Some(t) = v.track {
         let win = |w: Option<detector_core::strategy::track::WindowOutcome>| w.map(|w| json!({"e_m": w.e_m, "threshold_m": w.threshold_m, "dist_m": w.dist_m, "z": w.z}));

@@ -100,6 +100,7 @@ pub fn table(vs: &[Verdict]) -> Result<RecordBatch, arrow_schema::ArrowError> {
         ("turn_gnss_change_deg", f32s(vs, |v| v.turn.map(|t| t.gnss_change_deg))),
         ("turn_steering_change_deg", f32s(vs, |v| v.turn.map(|t| t.steering_change_deg))),
         ("turn_mismatch", strs(vs, |v| v.turn.and_then(|t| t.mismatch).map(|m| format!("{m:?}")))),
+        ("turn_heading_share", f32s(vs, |v| v.turn_heading)),
         // The track check.
         ("track_learning", bools(vs, |v| v.track.map(|t| t.learning))),
         ("track_uninformative", bools(vs, |v| v.track.map(|t| t.uninformative))),

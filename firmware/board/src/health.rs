@@ -389,6 +389,7 @@ pub(crate) mod tests {
             shift: None,
             motion: None,
             turn: None,
+            turn_heading: None,
             track: None,
             learning: false,
             alarm,

@@ -345,6 +345,7 @@ mod tests {
             shift: None,
             motion: None,
             turn: None,
+            turn_heading: None,
             track: None,
             learning: false,
             alarm: true,

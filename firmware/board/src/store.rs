@@ -509,6 +509,7 @@ mod tests {
             shift: None,
             motion: Some(MotionOutcome { wheel, gnss: wheel, disagree_s: 0.0, disagreement: None, fired: false }),
             turn: None,
+            turn_heading: None,
             track: None,
             learning: false,
             alarm,

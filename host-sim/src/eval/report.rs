@@ -328,13 +328,15 @@ fn nuisance(r: &Report) -> String {
 
 /// How near the clean drives and the nuisance suite came to an alarm, per check.
 fn headroom(r: &Report) -> String {
-    let mut s = String::from("## Headroom\n\nHow near the clean drives (per source, the nearest of its drives) and the nuisance suite (per kind, the nearest of its runs) came to an alarm: each check's statistic as a share of its threshold, the largest it held for as long as the check's persistence (at 1.00 or more it fires). Strategy 1: |GNSS shift - prediction| over its threshold; strategy 3: a wheel/GNSS disagreement's length over its persistence; the track check's position windows: |e| over their threshold; the velocity test: the bank's `T` over `h` along and across the road (its gross path, a run of pairs each beyond 6 sigma, apart). Measured on the epochs' times, while the velocity test's persistence runs on its pairs' (up to 2 s behind), so a value near 1.00 is approximate. `-`: the check never judged. Strategy 2 reads a turn as a class and has no such statistic. A drive not in this data meets these margins, not the false-alarm count.\n\n| run | strategy 1 | strategy 3 | position windows | velocity along | velocity across |\n|---|---|---|---|---|---|\n");
+    let mut s = String::from("## Headroom\n\nHow near the clean drives (per source, the nearest of its drives) and the nuisance suite (per kind, the nearest of its runs) came to an alarm: each check's statistic as a share of its threshold, the largest it held for as long as the check's persistence (at 1.00 or more it fires). Strategy 1: |GNSS shift - prediction| over its threshold; strategy 3: a wheel/GNSS disagreement's length over its persistence; the track check's position windows: |e| over their threshold; the velocity test: the bank's `T` over `h` along and across the road (its gross path, a run of pairs each beyond 6 sigma, apart); strategy 2's heading check: the GNSS course change beyond the steering's over its threshold (it fires at once). Measured on the epochs' times, while the velocity test's persistence runs on its pairs' (up to 2 s behind), so a value near 1.00 is approximate. `-`: the check never judged. Strategy 2's turns are read as a class and have no such statistic. A drive not in this data meets these margins, not the false-alarm count.\n\n| run | strategy 1 | strategy 3 | position windows | velocity along | velocity across | strategy 2 heading |\n|---|---|---|---|---|---|---|\n");
     let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.2}"));
     let row = |s: &mut String, name: &str, h: &Headroom| {
-        let _ = writeln!(s, "| {name} | {} | {} | {} | {} | {} |", f(h.shift), f(h.motion), f(h.windows), f(h.velocity_along), f(h.velocity_across));
+        let _ = writeln!(s, "| {name} | {} | {} | {} | {} | {} | {} |", f(h.shift), f(h.motion), f(h.windows), f(h.velocity_along), f(h.velocity_across), f(h.turn_heading));
     };
     let mut by: BTreeMap<&str, Headroom> = BTreeMap::new();
-    for d in r.clean.per_drive.iter().filter(|d| d.judged) {
+    // Every clean drive, those without wheel speed too (judged for false alarms only: strategy
+    // 2 runs there on the yaw-rate proxy).
+    for d in &r.clean.per_drive {
         let e = by.entry(d.source.as_str()).or_default();
         *e = e.max(d.headroom);
     }

@@ -32,8 +32,8 @@ pub struct CleanDrive {
 
 /// How near a run came to an alarm: each check's statistic as a share of its threshold, the
 /// largest it held for as long as the check's persistence (at 1 or more it fires; approximate
-/// near 1, see `stats::headroom`). `None`: the check never judged. Strategy 2 has no such
-/// statistic: a turn is read as one class or another.
+/// near 1, see `stats::headroom`). `None`: the check never judged. Strategy 2's turns have no
+/// such statistic (a turn is read as one class or another); its heading check has.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct Headroom {
     /// Strategy 1: |GNSS shift - prediction| over its threshold.
@@ -47,12 +47,15 @@ pub struct Headroom {
     pub velocity_along: Option<f64>,
     /// The same across the road (a gyro's cars only).
     pub velocity_across: Option<f64>,
+    /// Strategy 2's heading check: the GNSS course change beyond the steering's over its
+    /// threshold (it fires at once, no persistence).
+    pub turn_heading: Option<f64>,
 }
 
 impl Headroom {
     /// The largest share of any check's threshold.
     pub fn nearest(&self) -> Option<f64> {
-        [self.shift, self.motion, self.windows, self.velocity_along, self.velocity_across].into_iter().flatten().reduce(f64::max)
+        [self.shift, self.motion, self.windows, self.velocity_along, self.velocity_across, self.turn_heading].into_iter().flatten().reduce(f64::max)
     }
 
     /// The larger of each check's peaks.
@@ -67,6 +70,7 @@ impl Headroom {
             windows: m(self.windows, o.windows),
             velocity_along: m(self.velocity_along, o.velocity_along),
             velocity_across: m(self.velocity_across, o.velocity_across),
+            turn_heading: m(self.turn_heading, o.turn_heading),
         }
     }
 }

@@ -70,7 +70,7 @@ impl Persistence {
 
 /// How near a run came to an alarm ([`Headroom`]): each check's statistic as a share of its
 /// threshold, the largest it held for the check's persistence; strategy 3's disagreement
-/// length over its persistence.
+/// length over its persistence; strategy 2's heading check, the largest share it judged.
 pub fn headroom(v: &[Verdict], cfg: &detector_core::fusion::Config, p: Persistence) -> Headroom {
     let series = |f: &dyn Fn(&Verdict) -> Option<f32>| v.iter().map(|x| (x.t, f(x))).collect::<Vec<_>>();
     let shift = series(&|x| x.shift.filter(|s| s.threshold_m > 0.0).map(|s| s.residual_m.abs() / s.threshold_m));
@@ -95,6 +95,7 @@ pub fn headroom(v: &[Verdict], cfg: &detector_core::fusion::Config, p: Persisten
         windows,
         velocity_along: vel(0),
         velocity_across: vel(1),
+        turn_heading: v.iter().filter_map(|x| x.turn_heading).map(f64::from).reduce(f64::max),
     }
 }
 

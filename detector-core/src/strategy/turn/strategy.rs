@@ -199,6 +199,9 @@ pub struct TurnStrategy<'a> {
     dist: f32,
     next_tick: f64,
     last_gnss_only_alarm_t: f64,
+    /// The heading check's largest share of its threshold over this epoch's ticks (see
+    /// [`TurnStrategy::heading_share`]).
+    heading_share: Option<f32>,
     /// The measured steering's value since when, for the stuck-sensor check.
     same_steer: Option<SameSteer>,
 }
@@ -233,6 +236,7 @@ impl<'a> TurnStrategy<'a> {
             dist: 0.0,
             next_tick: 0.0,
             last_gnss_only_alarm_t: f64::NEG_INFINITY,
+            heading_share: None,
             same_steer: None,
         }
     }
@@ -292,8 +296,17 @@ impl<'a> TurnStrategy<'a> {
         }
     }
 
+    /// How near the heading check came to firing at the last epoch: over the windows it
+    /// judged, the largest GNSS course change beyond what the steering implies, as a share of
+    /// `straight_turn_deg` (at more than 1 it fires). `None`: it judged no window (the wheel
+    /// turned, the car was slow, or a steering segment ran).
+    pub fn heading_share(&self) -> Option<f32> {
+        self.heading_share
+    }
+
     /// One epoch.
     pub fn step(&mut self, s: &Sample) -> TurnStep {
+        self.heading_share = None;
         let Some((steer, derived)) = self.steer_of(s) else {
             self.reset();
             return TurnStep::Degraded;

@@ -105,6 +105,7 @@ impl TurnStrategy<'_> {
         now_ok &= settled(NOW_LAG_S) && now_travel >= HEADING_MIN_TRAVEL_M;
         held_ok &= settled(VEHICLE_LATE_S) && held_travel >= HEADING_MIN_TRAVEL_M;
         let (mut change, mut implied, mut beyond, mut from, mut end) = (0.0f32, now_implied, 0.0f32, 0usize, newest);
+        let mut held_best = 0.0f32;
         if now_ok {
             let to = newest.checked_sub(lag)?;
             from = to.checked_sub(span)?;
@@ -134,9 +135,17 @@ impl TurnStrategy<'_> {
                 }
                 best = best.min(libm::fabsf(ch - run));
             }
+            held_best = best;
             if best > c.straight_turn_deg {
                 (change, implied, beyond, from, end) = (ch, sum(late + 1), best, f, e);
             }
+        }
+        // How near it came, for the record (`heading_share`): `held` judged against the
+        // closest of its shifted windows.
+        let judged = if now_ok { Some(beyond) } else { held_ok.then_some(beyond.max(held_best)) };
+        if let Some(b) = judged.filter(|b| b.is_finite()) {
+            let share = b / c.straight_turn_deg.max(1e-3);
+            self.heading_share = Some(self.heading_share.map_or(share, |s| s.max(share)));
         }
         let (first, window_end) = (self.seg.tick(from)?, self.seg.tick(end)?);
         // One alarm per window.
