@@ -142,7 +142,7 @@ impl TurnStrategy<'_> {
         }
         // How near it came, for the record (`heading_share`): `held` judged against the
         // closest of its shifted windows.
-        let judged = if now_ok { Some(beyond) } else { held_ok.then_some(beyond.max(held_best)) };
+        let judged = if now_ok { Some(beyond) } else { held_ok.then_some(held_best) };
         if let Some(b) = judged.filter(|b| b.is_finite()) {
             let share = b / c.straight_turn_deg.max(1e-3);
             self.heading_share = Some(self.heading_share.map_or(share, |s| s.max(share)));
