@@ -355,6 +355,25 @@ fn without_a_gyro_a_jump_hidden_in_a_gap_is_found_by_the_distance_and_a_bend_in_
     assert!(f.first().is_none_or(|t| *t > gap.1 + 1.5), "fired at {f:?}");
 }
 
+/// Across a gap the car stood through, a quiet receiver's 30 m jump is found at the first fix
+/// after it; a receiver wandering by 12 m (rms, smooth over 8 to 17 s, as in town) moves its two
+/// ends of the same gap by 30 m, and that is its noise, not a jump: the slack is the learnt
+/// noise's where it is above the fixed one.
+#[test]
+fn a_gap_while_standing_is_judged_against_the_receivers_learnt_wander() {
+    // The car stands from 600 to 620 s; no fix from 601.5 to 615.5 s.
+    let gap = vec![(601.5, 615.5)];
+    let quiet = Car { spoof: |t| if t > 615.5 { (30.0, 0.0) } else { (0.0, 0.0) }, gaps: gap.clone(), ..Car::default() };
+    let f = fired(&run(&without_gyro(drive(&quiet, 700.0, 3))));
+    assert!(f.first().is_some_and(|t| (615.5..617.0).contains(t)), "quiet receiver, 30 m jump: fired at {f:?}");
+    let wander: fn(f64) -> (f64, f64) = |t| (10.0 * (t / 8.0 + 2.4).sin() + 6.0 * (t / 13.0).sin(), 10.0 * (t / 9.0).cos() + 6.0 * (t / 17.0 + 2.0).sin());
+    let (a, b) = (wander(601.0), wander(616.0));
+    assert!((a.0 - b.0).hypot(a.1 - b.1) > 29.0);
+    let town = Car { wander, gaps: gap, ..Car::default() };
+    let f = fired(&run(&without_gyro(drive(&town, 700.0, 3))));
+    assert!(f.is_empty(), "wandering receiver: fired at {f:?}");
+}
+
 /// With the vehicle signals a second late, a fix's dead reckoning is known only about a second
 /// after it, so with a little jitter two fixes often become ready in the same epoch: every one
 /// is judged by the velocity test, none dropped for the newer.

@@ -371,6 +371,37 @@ fn a_gnss_turn_while_the_wheel_weaves_fires_and_late_steering_through_bends_does
     }
 }
 
+/// A bend at 14 m/s with the wheel at 45 deg for 5 s (under `start_deg`: no steering
+/// segment), which the bicycle model reads as 78 deg left; the car (and the GNSS) turns `gain`
+/// times that (a quicker steering than the model's ratio 15 for gains above 1; a negative gain
+/// is the GNSS turning the other way).
+fn bend_at_gain(gain: f64) -> Vec<Sample> {
+    let steer_at = |t: f64| 45.0 * ((t - 20.0).clamp(0.0, 1.0) - (t - 25.0).clamp(0.0, 1.0));
+    // The model's left turn so far, deg, by the same sum as `steered`.
+    let model: Vec<f64> = (0..600)
+        .scan(0.0, |h, k| {
+            *h += (14.0 * (steer_at(k as f64 * 0.1) / 15.0).to_radians().tan() / 2.7).to_degrees() * 0.1;
+            Some(*h)
+        })
+        .collect();
+    steered(14.0, steer_at, move |t| -(gain - 1.0) * model.get((t / 0.1).round() as usize).copied().unwrap_or(0.0), 0.0)
+}
+
+#[test]
+fn a_bend_quicker_than_the_model_is_the_steerings_and_one_the_other_way_is_not() {
+    // Cars steer quicker than ratio 15 (sddi_commuter's turns read at 0.56 to 0.8 of theirs):
+    // the GNSS turning the steering's way by up to twice the model's change is that turn.
+    for gain in [1.0, 1.5, 1.9] {
+        let f = turn_fired(&bend_at_gain(gain));
+        assert!(f.is_empty(), "gain {gain}: {:?}", f.first().map(|f| f.1.turn));
+    }
+    // Beyond twice (3 x 78 deg: 78 deg more), or the other way (156 deg from the model's).
+    for gain in [3.0, -1.0] {
+        let f = turn_fired(&bend_at_gain(gain));
+        assert!(f.first().is_some_and(|f| f.1.turn.and_then(|t| t.mismatch) == Some(turn::TurnMismatch::GnssTurnWheelStraight)), "gain {gain}: not found");
+    }
+}
+
 #[test]
 fn a_spoofed_turn_under_a_coarse_wheel_held_straight_is_reported_not_called_stuck() {
     // A coarse sensor holds 0 on the straight road; the GNSS turns 90 deg over 6 s while the

@@ -16,8 +16,12 @@ use detector_core::strategy::turn::TemplateSet;
 use detector_core::sync::{SyncConfig, Synchronizer};
 use detector_core::stage::{NoStopwatch, Stage, Stopwatch};
 
-/// FNV-1a 64 over a canonical encoding of every verdict: equal digests mean equal verdict
-/// streams, down to the bits of every residual and threshold.
+/// FNV-1a 64 over a canonical encoding of every verdict: equal digests mean equal decisions
+/// (each strategy's ran, fired and degraded, the alarm, the reasons) and equal bits of strategy
+/// 1's residual and threshold, strategy 3's disagreement and states and strategy 2's course
+/// change, distance and mismatch. The track check's internals (its windows, velocity test and
+/// calibration) and strategy 2's heading share are not in it: they reach the digest through the
+/// decisions they make.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Digest(pub u64);
 
