@@ -57,11 +57,13 @@ struct Car {
     crawl: Option<(f64, f64)>,
     /// Speed added to the receiver's reported speed at time t, m/s (a spoofer's).
     speed_off: fn(f64) -> f64,
+    /// No turns: a straight road (its stops kept).
+    straight: bool,
 }
 
 impl Default for Car {
     fn default() -> Self {
-        Car { wheel_scale: 1.03, gyro_bias_degps: 0.3, gyro_scale: 1.02, gnss_delay_s: 0.5, gnss_noise_m: 0.7, h_acc_m: None, spoof: |_| (0.0, 0.0), gaps: Vec::new(), first_stop_s: 0.0, vehicle_delay_s: 0.0, fix_jitter_s: 0.0, course: false, wander: |_| (0.0, 0.0), course_off: |_| 0.0, s_bend: |_| 0.0, gyro_off: |_| 0.0, crawl: None, speed_off: |_| 0.0 }
+        Car { wheel_scale: 1.03, gyro_bias_degps: 0.3, gyro_scale: 1.02, gnss_delay_s: 0.5, gnss_noise_m: 0.7, h_acc_m: None, spoof: |_| (0.0, 0.0), gaps: Vec::new(), first_stop_s: 0.0, vehicle_delay_s: 0.0, fix_jitter_s: 0.0, course: false, wander: |_| (0.0, 0.0), course_off: |_| 0.0, s_bend: |_| 0.0, gyro_off: |_| 0.0, crawl: None, speed_off: |_| 0.0, straight: false }
     }
 }
 
@@ -102,7 +104,10 @@ fn drive(car: &Car, secs: f64, seed: u64) -> Vec<Sample> {
     let mut next_epoch = 1.0;
     let truth = |t: f64| match car.crawl {
         Some((a, b)) if (a..b).contains(&t) => (2.0, 0.0),
-        _ => truth(t, car.first_stop_s),
+        _ => {
+            let (v, yaw) = truth(t, car.first_stop_s);
+            (v, if car.straight { 0.0 } else { yaw })
+        }
     };
     while t < secs {
         let (v, yaw) = truth(t);
@@ -372,6 +377,24 @@ fn a_gap_while_standing_is_judged_against_the_receivers_learnt_wander() {
     let town = Car { wander, gaps: gap, ..Car::default() };
     let f = fired(&run(&without_gyro(drive(&town, 700.0, 3))));
     assert!(f.is_empty(), "wandering receiver: fired at {f:?}");
+}
+
+/// A car without a gyro on a straight road stops at 1050 s inside a 15 s gap, its GNSS 2.5 s
+/// late: the fix before
+/// the gap is where the car was 2.5 s earlier, so the chord across the gap is 37.5 m longer
+/// than the wheels' distance over it (at 15 m/s), beyond the ends' fixed 25 m. The delay in use
+/// takes that back; a jump of 566 m hidden in the same gap is still found.
+#[test]
+fn a_gap_the_car_stops_in_is_judged_at_the_gnss_delay() {
+    let gaps = vec![(1040.5, 1055.5)];
+    let late = Car { gnss_delay_s: 2.5, gaps: gaps.clone(), straight: true, ..Car::default() };
+    let o = run(&without_gyro(drive(&late, 1100.0, 4)));
+    let delay = o.iter().filter(|(t, _)| *t < 1040.5).filter_map(|(_, x)| *x).next_back().map_or(f32::NAN, |x| x.delay_s);
+    assert!((2.0..=3.0).contains(&delay), "learnt delay {delay}");
+    assert!(fired(&o).is_empty(), "GNSS 2.5 s late: fired at {:?}", fired(&o));
+    let jump = Car { spoof: |t| if t > 1055.5 { (400.0, 400.0) } else { (0.0, 0.0) }, ..late };
+    let f = fired(&run(&without_gyro(drive(&jump, 1100.0, 4))));
+    assert!(f.first().is_some_and(|t| (1055.5..1057.0).contains(t)), "a jump of 566 m: fired at {f:?}");
 }
 
 /// With the vehicle signals a second late, a fix's dead reckoning is known only about a second
