@@ -35,8 +35,10 @@ const NOW_LAG_S: f32 = 1.0;
 /// steering stays under `start_deg` is `held`'s to judge and its GNSS course runs ahead of the
 /// model by tens of degrees (0.62 of the threshold at 2204 s of `nl_20210215_170017`), and a
 /// receiver's wander of 7 m in town adds the rest (nuisance seeds 429032188 and 433032302: 68
-/// and 63 deg). The GNSS course turning the way the steering does, by half to twice the
-/// model's change, is the steering's turn: only the part beyond that band counts.
+/// and 63 deg). The GNSS course turning the way the steering does, by once to twice the
+/// model's change, is the steering's turn: only the part beyond that band counts. Not below
+/// once: from half, a GNSS turn mirrored against the steering's counts a quarter less, and
+/// `eval` lost a wrong turn (91 -> 90; 88 with the straight-wheel window widened too).
 const IMPLIED_GAIN: (f32, f32) = (1.0, 2.0);
 
 /// How far the GNSS course change `ch` lies beyond the steering's implied change `implied`
