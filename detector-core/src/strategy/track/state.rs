@@ -456,11 +456,12 @@ impl TrackCheck {
     /// GNSS course (a stop, a slow crawl, a gap), not by half a degree a second.
     pub(super) fn bound_bias_by_standstill(&mut self) {
         // The filters themselves, not `rot`: a stored record is loaded before the heading's
-        // source is known.
+        // source is known. The correction's band only where no record gave the bias (see
+        // `rotation::STANDSTILL_BIAS_BAND_SD`).
         if self.bias_weight >= rotation::STANDSTILL_MEASURED_S {
-            let sd = rotation::STANDSTILL_BIAS_SD_DEGPS.to_radians();
-            self.rot.bound_omega_var(sd * sd);
-            self.rot_own.bound_omega_var(sd * sd);
+            let (sd, own) = (rotation::STANDSTILL_BIAS_SD_DEGPS.to_radians(), self.stored.is_none());
+            self.rot.bound_omega_var(sd * sd, own);
+            self.rot_own.bound_omega_var(sd * sd, own);
         }
     }
 

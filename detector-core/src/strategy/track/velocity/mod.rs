@@ -49,7 +49,8 @@
 //! monitors of Quartararo & Langel, NAVIGATION 2022, in their simplest form); pairs beyond
 //! [`VelocityConfig::gross`] (and beyond [`VelocityConfig::gross_mps`] along the road,
 //! [`GROSS_ACROSS_MPS`] across it) in the same direction for [`VelocityConfig::gross_s`],
-//! beyond [`GROSS_FAST_MPS`] for [`GROSS_FAST_S`], or along the road beyond
+//! beyond [`GROSS_FAST_MPS`] for [`GROSS_FAST_S`] (less [`PERSIST_JITTER_S`] where the
+//! receiver reports its velocity), or along the road beyond
 //! [`GROSS_SLOW_MPS`] for [`GROSS_SLOW_S`], fire at once (a drift of metres per second, a
 //! frozen position: the smaller the run, the longer it must last), once the channel's noise is
 //! measured (four differences since the power-up: before them `z` is in the prior's units). Every fix is judged, oldest
@@ -239,7 +240,8 @@ impl VelocityTest {
             if let Some(o) = out.t_windows.get_mut(k) {
                 *o = tw;
             }
-            let gross = ch.gross_run.is_some_and(|g| g.fires(cfg.gross_s));
+            let fast_s = if ends.is_some() { GROSS_FAST_S } else { GROSS_FAST_S - PERSIST_JITTER_S };
+            let gross = ch.gross_run.is_some_and(|g| g.fires(cfg.gross_s, fast_s));
             let held = if t_w > h { t - *ch.above_since.get_or_insert(t) } else {
                 ch.above_since = None;
                 -1.0

@@ -315,3 +315,29 @@ fn hostile_numbers_end_every_step() {
         let _ = v.observe(*x, [Some((1.0, 0.0)), None], None);
     }
 }
+
+/// Three fixes beyond [`GROSS_FAST_MPS`] of a receiver's own velocity fire however their stamps
+/// jitter (a receiver's 1 Hz at 0.99 s: 1.98 s from first to last), two do not, even 1.2 s
+/// apart, and under it three fixes never do; three position differences 0.99 s apart do not
+/// (a wandering position runs three beyond it on its own), 1 s apart they do.
+#[test]
+fn three_fast_fixes_fire_at_a_receivers_own_spacing() {
+    let fires = |r: f32, fixes: usize, spacing: f32, positions: bool| {
+        let mut v = VelocityTest::new(VelocityConfig::default());
+        let ends = positions.then_some(Ends { noise: [(1.0, 0.0); WINDOWS], floor_m2: [0.0; WINDOWS], speed_mps: 10.0 });
+        let mut any = false;
+        for k in 0..140 {
+            let t = if k < 100 { k as f32 } else { 100.0 + (k - 100) as f32 * spacing };
+            let quiet = if k % 2 == 0 { 0.05 } else { -0.05 };
+            let x = if (100..100 + fixes).contains(&k) { r } else { quiet };
+            any |= v.observe(t, [Some((x, 0.0)), None], ends).fired[ALONG];
+        }
+        any
+    };
+    assert!(fires(6.0, 3, 0.99, false), "three fixes 0.99 s apart");
+    assert!(fires(6.0, 3, 0.9, false), "three fixes 0.9 s apart");
+    assert!(!fires(6.0, 2, 1.2, false), "two fixes");
+    assert!(!fires(3.0, 3, 1.0, false), "three fixes under 4 m/s");
+    assert!(!fires(6.0, 3, 0.99, true), "three position differences 0.99 s apart");
+    assert!(fires(6.0, 3, 1.0, true), "three position differences 1 s apart");
+}
