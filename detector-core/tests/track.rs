@@ -59,11 +59,14 @@ struct Car {
     speed_off: fn(f64) -> f64,
     /// No turns: a straight road (its stops kept).
     straight: bool,
+    /// Where this gives a motion, the car makes it instead of the truth's: a signed speed (m/s,
+    /// negative: reversing, which its wheel speed does not say) and a yaw rate (deg/s, + left).
+    manoeuvre: fn(f64) -> Option<(f64, f64)>,
 }
 
 impl Default for Car {
     fn default() -> Self {
-        Car { wheel_scale: 1.03, gyro_bias_degps: 0.3, gyro_scale: 1.02, gnss_delay_s: 0.5, gnss_noise_m: 0.7, h_acc_m: None, spoof: |_| (0.0, 0.0), gaps: Vec::new(), first_stop_s: 0.0, vehicle_delay_s: 0.0, fix_jitter_s: 0.0, course: false, wander: |_| (0.0, 0.0), course_off: |_| 0.0, s_bend: |_| 0.0, gyro_off: |_| 0.0, crawl: None, speed_off: |_| 0.0, straight: false }
+        Car { wheel_scale: 1.03, gyro_bias_degps: 0.3, gyro_scale: 1.02, gnss_delay_s: 0.5, gnss_noise_m: 0.7, h_acc_m: None, spoof: |_| (0.0, 0.0), gaps: Vec::new(), first_stop_s: 0.0, vehicle_delay_s: 0.0, fix_jitter_s: 0.0, course: false, wander: |_| (0.0, 0.0), course_off: |_| 0.0, s_bend: |_| 0.0, gyro_off: |_| 0.0, crawl: None, speed_off: |_| 0.0, straight: false, manoeuvre: |_| None }
     }
 }
 
@@ -102,8 +105,9 @@ fn drive(car: &Car, secs: f64, seed: u64) -> Vec<Sample> {
     let mut prev: Option<(f64, LatLon)> = None;
     let mut t = 0.0;
     let mut next_epoch = 1.0;
-    let truth = |t: f64| match car.crawl {
-        Some((a, b)) if (a..b).contains(&t) => (2.0, 0.0),
+    let truth = |t: f64| match (car.crawl, (car.manoeuvre)(t)) {
+        (_, Some(m)) => m,
+        (Some((a, b)), _) if (a..b).contains(&t) => (2.0, 0.0),
         _ => {
             let (v, yaw) = truth(t, car.first_stop_s);
             (v, if car.straight { 0.0 } else { yaw })
@@ -122,6 +126,8 @@ fn drive(car: &Car, secs: f64, seed: u64) -> Vec<Sample> {
         } else {
             (v, yaw)
         };
+        // The wheels say how fast, not which way (ABS and OBD speeds).
+        let v = v.abs();
         t += dt;
         track.push((t, pos));
         dist += v * car.wheel_scale * dt;
@@ -162,7 +168,13 @@ fn drive(car: &Car, secs: f64, seed: u64) -> Vec<Sample> {
             pos: rep,
             shift_m,
             gnss_speed: Reading::Valid((v + (car.speed_off)(t)) as f32),
-            gnss_course: if car.course { Reading::Valid((heading + (car.course_off)(t)).rem_euclid(360.0) as f32) } else { Reading::Missing },
+            gnss_course: if car.course {
+                // The course is the way the car moves: behind it while it reverses.
+                let back = if truth(when).0 < 0.0 { 180.0 } else { 0.0 };
+                Reading::Valid((heading + back + (car.course_off)(t)).rem_euclid(360.0) as f32)
+            } else {
+                Reading::Missing
+            },
             gnss_h_acc: Reading::from_opt(car.h_acc_m),
             receiver_spoofing: false,
             signals,
@@ -754,5 +766,74 @@ fn a_first_drives_warm_up_does_not_learn_a_gross_drift() {
     for (t, x) in o.iter().filter(|(t, _)| (55.0..=90.0).contains(t)).filter_map(|(t, x)| x.map(|x| (*t, x))) {
         assert!(!x.calibrated, "still the first drive's warm-up at {t}");
         assert!((-1.5..=-0.5).contains(&x.delay_s), "delay {} s at {t} (the vehicle signals 1 s late)", x.delay_s);
+    }
+}
+
+/// Out of each stop from 300 s on (the first drive's warm-up has learnt the car by then):
+/// backwards at 2 m/s for 10 s, turning 35 deg left, into a standstill: 20 m, as out of a
+/// parking space.
+fn back_out(t: f64) -> Option<(f64, f64)> {
+    let c = t % 150.0;
+    if t < 300.0 || !(3.0..14.0).contains(&c) {
+        return None;
+    }
+    let v = if c < 4.0 { -2.0 * (c - 3.0) } else if c < 13.0 { -2.0 } else { -2.0 * (14.0 - c) };
+    Some((v, if (5.0..12.0).contains(&c) { 5.0 } else { 0.0 }))
+}
+
+/// A car reverses out of a parking space, and its wheel speed says 2 m/s, not which way. The
+/// dead reckoning drove on along the gyro's heading, so the velocity test's along-track
+/// residual was twice the speed and a car with a gyro raised the alarm four seconds into every
+/// reversal. After a standstill the direction of travel is now the one the GNSS shows, within
+/// a reversal's bounds (see `REVERSE_MAX_MPS`, `REVERSE_MAX_M`). A car without a gyro takes its
+/// direction from the GNSS track, and never alarmed.
+#[test]
+fn a_car_reversing_out_of_a_stop_raises_no_alarm() {
+    for course in [true, false] {
+        let car = Car { course, manoeuvre: back_out, ..Car::default() };
+        let samples = drive(&car, 1800.0, 31);
+        let out = run(&samples);
+        assert!(fired(&out).is_empty(), "course {course}: fired at {:?}", fired(&out));
+        let reversing = out.iter().filter(|(_, o)| o.is_some_and(|o| o.reversing)).count();
+        assert!(reversing >= 5 * 10, "course {course}: taken as reversing at {reversing} epochs of ten reversals");
+        let f = fired(&run(&without_gyro(samples)));
+        assert!(f.is_empty(), "course {course}, no gyro: fired at {f:?}");
+    }
+}
+
+/// ... but a track going backwards faster or further than a car reverses is judged as forward
+/// driving, and found: at 4 m/s; for 40 m; or 14 m at a time between standstills, as a queue's
+/// crawls could be faked, beyond the 25 m a car may reverse in all before it drives on at speed.
+/// A receiver of position alone is judged from 3 m/s up, so its faked crawls are found once the
+/// car drives on (at 15 m/s from 495 s), by the windows that span them.
+#[test]
+fn a_track_going_backwards_faster_or_further_than_a_car_reverses_is_found() {
+    // One manoeuvre in the stop at 450 s (the car starts off again at 15 m/s from 470 s, or
+    // from `restart` where the manoeuvre holds it longer).
+    let fast: fn(f64) -> Option<(f64, f64)> = |t| {
+        let c = t - 450.0;
+        (3.0..10.0).contains(&c).then(|| (if c < 4.0 { -4.0 * (c - 3.0) } else if c < 9.0 { -4.0 } else { -4.0 * (10.0 - c) }, 0.0))
+    };
+    let far: fn(f64) -> Option<(f64, f64)> = |t| {
+        let c = t - 450.0;
+        (2.0..30.0).contains(&c).then(|| {
+            let v = if c < 3.0 { -2.0 * (c - 2.0) } else if c < 23.0 { -2.0 } else if c < 24.0 { -2.0 * (24.0 - c) } else if c < 25.0 { 0.0 } else { 3.0 * (c - 25.0) };
+            (v, 0.0)
+        })
+    };
+    let queue: fn(f64) -> Option<(f64, f64)> = |t| {
+        let c = t - 450.0;
+        (0.0..50.0).contains(&c).then(|| {
+            let p = c % 10.0;
+            let v = if c >= 45.0 { 3.0 * (c - 45.0) } else if c >= 40.0 || !(2.0..9.0).contains(&p) { 0.0 } else if p < 3.0 { -2.0 * (p - 2.0) } else if p < 8.0 { -2.0 } else { -2.0 * (9.0 - p) };
+            (v, 0.0)
+        })
+    };
+    for (name, manoeuvre, within) in [("4 m/s", fast, [10.0; 2]), ("40 m", far, [30.0; 2]), ("a queue's crawls", queue, [45.0, 70.0])] {
+        for (course, within) in [true, false].into_iter().zip(within) {
+            let car = Car { course, manoeuvre, ..Car::default() };
+            let f = fired(&run(&drive(&car, 540.0, 32)));
+            assert!(f.first().is_some_and(|t| (450.0..=450.0 + within).contains(t)), "{name}, course {course}: fired at {:?}", &f[..f.len().min(5)]);
+        }
     }
 }

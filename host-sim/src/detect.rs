@@ -187,7 +187,7 @@ pub fn verdict_json(v: &Verdict) -> Value {
         let win = |w: Option<detector_core::strategy::track::WindowOutcome>| w.map(|w| json!({"e_m": w.e_m, "threshold_m": w.threshold_m, "dist_m": w.dist_m, "z": w.z}));
         o["track"] = json!({"w10s": win(t.windows[0]), "w30s": win(t.windows[1]), "delay_s": t.delay_s, "scale": t.scale, "rotation_deg": t.rotation_deg, "rotation_sd_deg": t.rotation_sd_deg, "gyro_bias_degps": t.gyro_bias_degps, "heading": t.heading.name(), "turn_scale": t.turn_scale,
             "learning": t.learning, "uninformative": t.uninformative, "bound_10s_mps": t.bound_10s_mps, "noise_s0_m": t.noise_s0_m, "noise_k": t.noise_k,
-            "calibrated": t.calibrated, "delay_free_s": t.delay_free_s, "delay_velocity_s": if t.delay_velocity_s.is_finite() { json!(t.delay_velocity_s) } else { Value::Null }, "contradiction": t.contradiction.map(|c| format!("{c:?}").to_lowercase()),
+            "calibrated": t.calibrated, "reversing": t.reversing, "delay_free_s": t.delay_free_s, "delay_velocity_s": if t.delay_velocity_s.is_finite() { json!(t.delay_velocity_s) } else { Value::Null }, "contradiction": t.contradiction.map(|c| format!("{c:?}").to_lowercase()),
             "velocity": t.velocity.map(|v| json!({"residual_mps": v.residual_mps, "sigma_mps": v.sigma_mps, "t": v.t, "t_windows": v.t_windows, "h": v.h, "fired": v.fired, "suspicious": v.suspicious, "blind": v.blind, "settled": v.settled, "bound_10s_mps": v.bound_10s_mps, "pairs": v.pairs}))});
     }
     if let Some(f) = v.first_alarm {

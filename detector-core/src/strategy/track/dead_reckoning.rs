@@ -143,13 +143,15 @@ impl TrackCheck {
                 self.aligned = true;
             }
         }
+        let mut dist = 0.0;
         if let Some(l) = last {
             // An arc of constant curvature: its chord is `dist sinc(turn / 2)` along the mid
-            // heading. No car covers more than MAX_SPEED_MPS: a larger integral is a fault.
-            let dist = s.dist_m.get().filter(|x| x.is_finite()).unwrap_or(0.5 * (l.wheel + wheel) * dt).max(0.0).min(MAX_SPEED_MPS * dt.max(0.0) + 1.0);
+            // heading (reversed while the car reverses: see `travel`). No car covers more than
+            // MAX_SPEED_MPS: a larger integral is a fault.
+            dist = s.dist_m.get().filter(|x| x.is_finite()).unwrap_or(0.5 * (l.wheel + wheel) * dt).max(0.0).min(MAX_SPEED_MPS * dt.max(0.0) + 1.0);
             let half = 0.5 * turn;
             let chord = if libm::fabsf(half) > 1e-4 { dist * crate::trig::sinf(half) / half } else { dist };
-            let mid = self.psi + half;
+            let mid = self.psi + half + self.travel.offset();
             let (sin_mid, cos_mid) = crate::trig::sincosf(mid);
             self.dr.0 += chord * cos_mid;
             self.dr.1 += chord * sin_mid;
@@ -206,6 +208,7 @@ impl TrackCheck {
             _ => self.vi_since = f32::INFINITY,
         }
         self.hist.push(Entry { t, g, d: self.dr, u: self.dr_var, v, vi: self.vi });
+        self.travel.epoch(t, wheel, dist, &mut self.hist, &mut self.dr);
         t
     }
 

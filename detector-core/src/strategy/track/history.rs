@@ -59,6 +59,17 @@ impl History {
         }
     }
 
+    /// Every DR position after time `t` reflected through `at` (the car reversed from there:
+    /// see `travel`).
+    pub(super) fn reflect_d_after(&mut self, t: f32, at: (f32, f32)) {
+        let (a, b) = self.q.as_mut_slices();
+        for en in a.iter_mut().chain(b.iter_mut()) {
+            if en.t > t {
+                en.d = (2.0 * at.0 - en.d.0, 2.0 * at.1 - en.d.1);
+            }
+        }
+    }
+
     /// The newest entry is always this epoch; the ones before it are kept at least
     /// `MIN_SPACING_S` apart (the newest replaces its predecessor while that is too close to
     /// the entry before it).

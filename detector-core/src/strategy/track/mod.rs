@@ -10,8 +10,9 @@
 //!   (a jump hidden in a GNSS gap, a replayed track).
 //!
 //! # The dead reckoning
-//! Wheel speed along the heading, the heading integrated from the gyro (its bias measured while
-//! the wheels stand) or, without a gyro, taken from the GNSS track itself. Over a window of `T`
+//! Wheel speed along the heading (against it while the car reverses: `travel`), the heading
+//! integrated from the gyro (its bias measured while the wheels stand) or, without a gyro,
+//! taken from the GNSS track itself. Over a window of `T`
 //! seconds the GNSS displacement `G` (complex, east + i north) is compared with the DR
 //! displacement `D` of the same window, `tau` earlier:
 //!
@@ -65,7 +66,8 @@
 //! reset), `dead_reckoning` (each epoch's integration into the history, the bound across a
 //! gap), `windows` (the position windows) and `pairs` (the velocity pairs, their residuals,
 //! the calibration's pairs); this file runs them per epoch (`step`), judges and learns. Below
-//! them: `calibration`, `velocity`, `rotation`, `noise`, `history`, `plane`.
+//! them: `calibration`, `velocity`, `rotation`, `noise`, `travel` (the direction of travel: a
+//! car reverses, and its wheel speed does not say so), `history`, `plane`.
 
 pub mod calibration;
 mod config;
@@ -77,6 +79,7 @@ mod pairs;
 mod plane;
 mod rotation;
 mod state;
+mod travel;
 pub mod velocity;
 mod windows;
 
@@ -84,6 +87,7 @@ pub use self::config::{TrackConfig, WINDOWS_S};
 pub use self::dead_reckoning::MAX_BRIDGE_S;
 pub use self::outcome::{HeadingSource, TrackOutcome, WindowOutcome};
 pub use self::state::TrackCheck;
+pub use self::travel::{REVERSE_MAX_M, REVERSE_MAX_MPS};
 
 use self::calibration::Source;
 use self::history::{Entry, MAX_STEP_S};
@@ -158,6 +162,7 @@ impl TrackCheck {
         out.delay_velocity_s = self.cal.record_base().1[1];
         out.delay_free_s = self.cal.free_delay_s(Source::Position);
         out.calibrated = self.cal.calibrated();
+        out.reversing = self.travel.reversing();
         out.learning |= !out.calibrated;
         out.contradiction = self.cal.contradiction();
         if self.gap_jumped.take() == Some(s.t) {

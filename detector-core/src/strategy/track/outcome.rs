@@ -77,6 +77,8 @@ pub struct TrackOutcome {
     pub turn_scale: f32,
     /// Calibrated: from a stored record, or after the first drive's warm-up.
     pub calibrated: bool,
+    /// The dead reckoning takes the car to be reversing (see the track check's `travel`).
+    pub reversing: bool,
     /// Still learning: the car's calibration on a first drive, or nothing of the check judges
     /// yet (the position windows in their warm-up, without a gyro or with the frame not yet
     /// aligned, and the velocity test with no pair judged since the stretch began).

@@ -103,7 +103,9 @@ impl TrackCheck {
     }
 
     /// The velocity test's residuals of a pair: (along, across), each with the prediction's
-    /// own variance; `None` where the channel is not judged (too slow; across without a gyro).
+    /// own variance; `None` where the channel is not judged (too slow; across without a gyro;
+    /// neither where the pair turned the DR around: the car reverses, see `travel`; without a
+    /// gyro the DR's direction is the GNSS track's own).
     ///
     /// The prediction's variance: the scale's uncertainty times the speed, the frame rotation's
     /// times the speed (across), and the delay's times the DR's acceleration along and across
@@ -117,6 +119,10 @@ impl TrackCheck {
             Some(_) => cmul(self.gain(), p.d),
             None => scale2(p.d, self.cal.scale()),
         };
+        if self.rot().is_some() && !self.travel.pair(p.g, pred, &mut self.hist, &mut self.dr) {
+            self.last_pred = None;
+            return [None, None];
+        }
         // The DR's acceleration since the previous pair (none across a longer pause).
         let acc = match self.last_pred {
             Some((t0, p0)) if p.t > t0 && p.t - t0 <= 2.0 => scale2(sub(pred, p0), 1.0 / (p.t - t0)),

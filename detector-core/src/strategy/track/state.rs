@@ -9,6 +9,7 @@ use super::noise::{NoiseFits, NOISE_SPLIT_MPS};
 use super::outcome::HeadingSource;
 use super::plane::{cis, scale2};
 use super::rotation::{self, Rotation, GYRO_SCALE_BOUND, GYRO_SCALE_WALK, MAX_BIAS_DEGPS};
+use super::travel::Travel;
 use super::velocity::VelocityTest;
 use crate::geo::LatLon;
 
@@ -71,6 +72,8 @@ pub struct TrackCheck {
     /// Variance the DR took on across bridged gaps since the (re)start, m^2.
     pub(super) dr_var: f32,
     pub(super) psi: f32,
+    /// The direction of travel since the last standstill (a car reverses; see `travel`).
+    pub(super) travel: Travel,
     pub(super) aligned: bool,
     pub(super) source: Option<HeadingSource>,
     pub(super) last: Option<Last>,
@@ -163,6 +166,7 @@ impl TrackCheck {
             dr: (0.0, 0.0),
             dr_var: 0.0,
             psi: 0.0,
+            travel: Travel::default(),
             aligned: false,
             source: None,
             last: None,
@@ -402,6 +406,7 @@ impl TrackCheck {
         self.dr = (0.0, 0.0);
         self.dr_var = 0.0;
         self.psi = 0.0;
+        self.travel = Travel::default();
         self.aligned = false;
         self.source = None;
         self.last = None;
