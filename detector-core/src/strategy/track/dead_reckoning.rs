@@ -208,7 +208,11 @@ impl TrackCheck {
             _ => self.vi_since = f32::INFINITY,
         }
         self.hist.push(Entry { t, g, d: self.dr, u: self.dr_var, v, vi: self.vi });
-        self.travel.epoch(t, wheel, dist, &mut self.hist, &mut self.dr);
+        if self.travel.epoch(t, wheel, dist, &mut self.hist, &mut self.dr) {
+            // The DR turned around: the prediction's change since the last pair is not an
+            // acceleration (as where a pair turns it, `residuals`).
+            self.last_pred = None;
+        }
         t
     }
 

@@ -26,7 +26,7 @@
 //! speeds and see nothing either). A gear signal would close that; the detector has none yet.
 
 use super::history::History;
-use super::plane::{norm2, sub};
+use super::plane::norm2;
 
 /// A car reverses at walking pace to about 10 km/h: faster, the direction is forward, m/s. It
 /// is also the speed from which the DR frame aligns to the GNSS heading and the position
@@ -78,32 +78,34 @@ impl Travel {
     }
 
     /// After an epoch's integration, at time `t` with the wheel speed `wheel` and the wheel
-    /// distance `dist` since the epoch before: the car has stood (a new move may go either
-    /// way), or the move has outgrown a reversal (taken forward from here on).
+    /// distance `dist` (finite, not negative) since the epoch before: the car has stood (a new
+    /// move may go either way), or the move has outgrown a reversal (taken forward from here
+    /// on: `true` when that turned the DR around).
     #[inline(never)]
-    pub(super) fn epoch(&mut self, t: f32, wheel: f32, dist: f32, hist: &mut History, dr: &mut (f32, f32)) {
+    pub(super) fn epoch(&mut self, t: f32, wheel: f32, dist: f32, hist: &mut History, dr: &mut (f32, f32)) -> bool {
         if wheel < REVERSE_STANDSTILL_MPS {
             (self.open, self.dist, self.reverse) = ((self.reversed < REVERSE_MAX_M).then_some((t, *dr)), 0.0, false);
-            return;
+            return false;
         }
-        // The caller's `dist` is finite and not negative.
-        let d = dist;
-        self.dist += d;
+        self.dist += dist;
         if self.reverse {
-            self.reversed += d;
+            self.reversed += dist;
         }
         if wheel > REVERSE_MAX_MPS {
-            self.fast += d;
+            self.fast += dist;
             if self.fast >= REVERSE_REFILL_M {
                 self.reversed = 0.0;
             }
         }
-        if self.open.is_some() && (wheel > REVERSE_MAX_MPS || self.dist > REVERSE_MAX_M || self.reversed > REVERSE_MAX_M) {
-            if self.reverse {
-                self.flip(hist, dr);
-            }
+        let close = self.open.is_some() && (wheel > REVERSE_MAX_MPS || self.dist > REVERSE_MAX_M || self.reversed > REVERSE_MAX_M);
+        let back = close && self.reverse;
+        if back {
+            self.flip(hist, dr);
+        }
+        if close {
             self.open = None;
         }
+        back
     }
 
     /// A velocity pair: its GNSS velocity `g` against the DR's prediction `pred`, m/s. While
@@ -136,8 +138,7 @@ impl Travel {
     fn flip(&mut self, hist: &mut History, dr: &mut (f32, f32)) {
         let Some((t, at)) = self.open else { return };
         hist.reflect_d_after(t, at);
-        let d = sub(*dr, at);
-        *dr = (at.0 - d.0, at.1 - d.1);
+        *dr = (2.0 * at.0 - dr.0, 2.0 * at.1 - dr.1);
         self.reverse = !self.reverse;
     }
 }
